@@ -1,0 +1,162 @@
+"""Validation of YAML input into frozen dataclasses.
+
+YAML is parsed at the edge and turned into the dataclasses whose defaults live in
+code. Every problem is reported as one `ConfigError` line naming the file, the
+key, the bad value and what is allowed; the CLIs print that line and exit 2.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+
+class ConfigError(ValueError):
+    """A bad configuration: one line naming file, key, value and what is allowed."""
+
+
+def load_yaml(path: str | Path) -> dict[str, Any]:
+    """Read a YAML mapping from `path`, with errors as one-line `ConfigError`s."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: file not found")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f" line {mark.line + 1}" if mark is not None else ""
+        raise ConfigError(f"{path}:{where} not valid YAML ({getattr(err, 'problem', err)})") from None
+    if data is None:
+        return {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: expected a mapping of keys to values, got {type(data).__name__}")
+    return data
+
+
+def spec(*, unit: str = "", ge: float | None = None, gt: float | None = None, le: float | None = None,
+         doc: str = "") -> dict[str, Any]:
+    """Field metadata: unit and bounds checked by `from_mapping`."""
+    return {"unit": unit, "ge": ge, "gt": gt, "le": le, "doc": doc}
+
+
+def field(default: Any, **kw: Any) -> Any:
+    """A dataclass field with a default and `spec` metadata."""
+    return dataclasses.field(default=default, metadata=spec(**kw))
+
+
+def _allowed(meta: dict[str, Any]) -> str:
+    parts = []
+    if meta.get("gt") is not None:
+        parts.append(f"> {meta['gt']}")
+    if meta.get("ge") is not None:
+        parts.append(f">= {meta['ge']}")
+    if meta.get("le") is not None:
+        parts.append(f"<= {meta['le']}")
+    unit = f" {meta['unit']}" if meta.get("unit") else ""
+    return (" and ".join(parts) or "any finite value") + unit
+
+
+def check_number(value: Any, meta: dict[str, Any], where: str) -> float:
+    """Return `value` as a float, or raise ConfigError if it is not a number in bounds."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"{where}: {value!r} is not a number; allowed: {_allowed(meta)}")
+    value = float(value)
+    bad = (not math.isfinite(value)
+           or (meta.get("gt") is not None and not value > meta["gt"])
+           or (meta.get("ge") is not None and not value >= meta["ge"])
+           or (meta.get("le") is not None and not value <= meta["le"]))
+    if bad:
+        raise ConfigError(f"{where}: {value!r} is out of range; allowed: {_allowed(meta)}")
+    return value
+
+
+def _convert(value: Any, tp: Any, meta: dict[str, Any], where: str) -> Any:
+    origin = typing.get_origin(tp)
+    if dataclasses.is_dataclass(tp):
+        if not isinstance(value, dict):
+            raise ConfigError(f"{where}: {value!r} is not a mapping; allowed keys: "
+                              f"{', '.join(f.name for f in dataclasses.fields(tp))}")
+        return from_mapping(tp, value, where)
+    if tp is float:
+        return check_number(value, meta, where)
+    if tp is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ConfigError(f"{where}: {value!r} is not an integer; allowed: {_allowed(meta)}")
+        check_number(value, meta, where)
+        return value
+    if tp is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{where}: {value!r} is not true or false")
+        return value
+    if tp is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{where}: {value!r} is not a string")
+        return value
+    if origin is typing.Literal:
+        choices = typing.get_args(tp)
+        if value not in choices:
+            raise ConfigError(f"{where}: {value!r} is not allowed; allowed: {', '.join(map(str, choices))}")
+        return value
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        if value is None:
+            return None
+        return _convert(value, args[0], meta, where)
+    if origin is tuple:
+        args = typing.get_args(tp)
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(f"{where}: {value!r} is not a list")
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_convert(v, args[0], meta, f"{where}[{i}]") for i, v in enumerate(value))
+        if len(value) != len(args):
+            raise ConfigError(f"{where}: {value!r} must have {len(args)} entries")
+        return tuple(_convert(v, a, meta, f"{where}[{i}]") for i, (v, a) in enumerate(zip(value, args)))
+    if origin is dict or tp is dict:
+        if not isinstance(value, dict):
+            raise ConfigError(f"{where}: {value!r} is not a mapping")
+        return dict(value)
+    return value
+
+
+def from_mapping(cls: type, data: dict[str, Any], where: str) -> Any:
+    """Build dataclass `cls` from `data`, keeping code defaults for absent keys.
+
+    `where` prefixes every message (a file name, then dotted keys are appended).
+    Unknown keys, wrong types and out-of-range numbers raise `ConfigError`.
+    """
+    hints = typing.get_type_hints(cls)
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    sep = ": " if ":" not in where else "."
+    unknown = [k for k in data if k not in fields]
+    if unknown:
+        raise ConfigError(f"{where}{sep}{unknown[0]}: unknown key {unknown[0]!r}; allowed keys: "
+                          f"{', '.join(fields)}")
+    kwargs = {}
+    for name, value in data.items():
+        kwargs[name] = _convert(value, hints[name], dict(fields[name].metadata), f"{where}{sep}{name}")
+    obj = cls(**kwargs)
+    validate = getattr(obj, "validate", None)
+    if validate is not None:
+        validate(where)
+    return obj
+
+
+def check_dataclass(obj: Any, where: str) -> None:
+    """Check every bounded float field of a dataclass tree (for objects built in code)."""
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if dataclasses.is_dataclass(value):
+            check_dataclass(value, f"{where}.{f.name}")
+        elif isinstance(value, float) and f.metadata:
+            check_number(value, dict(f.metadata), f"{where}.{f.name}")
+
+
+def units(cls: type) -> dict[str, str]:
+    """Map each float field of `cls` to its unit (for docs and Parquet metadata)."""
+    return {f.name: f.metadata.get("unit", "") for f in dataclasses.fields(cls) if f.metadata}

@@ -1,0 +1,258 @@
+"""Scenarios: what the motors impose, on which slope, friction and gravity.
+
+A `Scenario` is a frozen dataclass of numbers (slope, friction, speed, ...) plus a
+`kind` naming an entry of `SCENARIOS`. The entry's controls function maps the
+numbers, given as a flat mapping of (possibly batched) arrays, and time t in s to
+the imposed wheel speeds omega (4,) in rad/s and steering angles alpha (4,) in
+rad, corner order lf, rf, lr, rr. The controls are pure JAX, so a sweep varies
+any of those numbers inside one compiled program.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from batchveh import laws
+from batchveh.config import ConfigError, field, from_mapping, load_yaml
+from batchveh.vehicle import CORNER_SIGNS, CORNERS, MOTORS
+
+GRAVITY_PRESETS = {"earth": 9.81, "moon": 1.62, "mars": 3.71}
+_SX = np.array([CORNER_SIGNS[c][0] for c in CORNERS], float)
+_SY = np.array([CORNER_SIGNS[c][1] for c in CORNERS], float)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One run's conditions. Every float field can be swept by its name."""
+
+    kind: str = "straight_line"
+    slope_deg: float = field(0.0, unit="deg", ge=-60, le=60, doc="slope, by tilting gravity; >0 climbs along +X")
+    friction: float = field(0.7, unit="1", gt=0, doc="Coulomb friction coefficient wheel-ground")
+    gravity: float = field(9.81, unit="m/s^2", gt=0, doc="gravity magnitude (earth 9.81, moon 1.62, mars 3.71)")
+    total_time: float = field(10.0, unit="s", gt=0)
+    time_step: float = field(0.005, unit="s", gt=0, le=0.05)
+    speed_kmh: float = field(1.0, unit="km/h", doc="target forward speed at the wheel rim")
+    ramp_time: float = field(3.0, unit="s", ge=0, doc="time to reach the target speed or angle")
+    steer_deg: float = field(45.0, unit="deg", ge=-90, le=90, doc="steering angle (steer_in_place, crab)")
+    turn_radius: float = field(3.0, unit="m", doc="Ackermann turn radius; >0 turns left")
+    yaw_rate_dps: float = field(20.0, unit="deg/s", doc="pivot yaw rate; >0 counter-clockwise")
+    drive_law: str = "ramp"
+    towing: tuple[bool, bool, bool, bool] = (False, False, False, False)
+    laws: dict | None = None
+
+    def validate(self, where: str = "scenario") -> None:
+        """Raise ConfigError for an unknown kind or inconsistent fields."""
+        if self.kind not in SCENARIOS:
+            raise ConfigError(f"{where}: scenario {self.kind!r} is not known; known: {', '.join(SCENARIOS)}")
+        if self.drive_law not in ("ramp", "unbounded_ramp", "smooth_step"):
+            raise ConfigError(f"{where}.drive_law: {self.drive_law!r} is not allowed; allowed: ramp, "
+                              "unbounded_ramp, smooth_step")
+        if self.kind == "custom":
+            custom_laws(self, where)
+        if self.time_step > self.total_time:
+            raise ConfigError(f"{where}.time_step: {self.time_step!r} exceeds total_time {self.total_time!r}")
+
+    @property
+    def n_steps(self) -> int:
+        """Number of physics steps."""
+        return int(round(self.total_time / self.time_step))
+
+    def gravity_vector(self) -> np.ndarray:
+        """(3,) gravity in m/s^2 tilted by the slope: (-g sin s, 0, -g cos s)."""
+        return np.asarray(gravity_vector(self.gravity, self.slope_deg))
+
+
+def gravity_vector(g, slope_deg, xp=jnp):
+    """Gravity tilted by the slope, as in the seed: (-g sin s, 0, -g cos s) in m/s^2."""
+    s = xp.deg2rad(slope_deg)
+    return xp.stack([-g * xp.sin(s), 0.0 * s, -g * xp.cos(s)], axis=-1)
+
+
+def numeric_fields() -> dict[str, dict[str, Any]]:
+    """The sweepable float fields of Scenario, with unit and bounds."""
+    return {f.name: dict(f.metadata) for f in dataclasses.fields(Scenario) if f.metadata}
+
+
+# --- controls ------------------------------------------------------------------
+Controls = Callable[[Scenario, Mapping[str, Any], Any], tuple[Any, Any]]
+
+
+def _omega(p):
+    """Wheel speed in rad/s for the target rim speed p['speed_kmh']."""
+    return p["speed_kmh"] / 3.6 / p["wheel.radius"]
+
+
+def _drive(sc: Scenario, target, p, t):
+    law = laws.LAWS[sc.drive_law]
+    return law(t, 0.0 * target, target, p["ramp_time"])
+
+
+def _axes(p):
+    """(4,) x and y of the steering axes in m, at the chassis corners."""
+    return _SX * p["chassis.length"] / 2, _SY * p["chassis.width"] / 2
+
+
+def _offset(p):
+    return p["wheel.y_cg"] - p["chassis.width"] / 2
+
+
+def straight_line(sc, p, t):
+    """Seed scenario 1: all wheels ramp to the target speed; no steering."""
+    w = _drive(sc, _omega(p), p, t)
+    return jnp.full(4, 1.0) * w, jnp.zeros(4)
+
+
+def steer_in_place(sc, p, t):
+    """Seed scenario 2: steer to -+steer_deg (lf, rf, lr, rr: -, +, +, -) over ramp_time.
+
+    Each wheel is driven so that it rolls around its offset steering axis, as the
+    seed does: a ramp to offset * steering rate / radius (0.134 rad/s for the seed).
+    """
+    target = jnp.deg2rad(p["steer_deg"]) * jnp.array([-1.0, 1.0, 1.0, -1.0])
+    alpha = laws.ramp(t, 0.0 * target, target, p["ramp_time"])
+    roll = -_SY * _offset(p) * (target / jnp.maximum(p["ramp_time"], 1e-12)) / p["wheel.radius"]
+    return _drive(sc, roll, p, t), alpha
+
+
+def crab(sc, p, t):
+    """All four wheels steer to steer_deg, then drive at the target speed: the body translates sideways."""
+    alpha = laws.ramp(t, 0.0, jnp.deg2rad(p["steer_deg"]), p["ramp_time"]) * jnp.ones(4)
+    w = laws.ramp(t, 0.0, _omega(p), p["ramp_time"], delay=p["ramp_time"])
+    return jnp.ones(4) * w, alpha
+
+
+def pivot(sc, p, t):
+    """Turn on the spot: steer tangent to a circle about the centre, then yaw at yaw_rate_dps."""
+    ax, ay = _axes(p)
+    alpha_t = -_SX * _SY * jnp.arctan2(jnp.abs(ax), jnp.abs(ay))
+    rho = jnp.hypot(ax, ay) + _offset(p)  # wheel centre lies on the radial line through its axis
+    omega_t = -_SY * jnp.deg2rad(p["yaw_rate_dps"]) * rho / p["wheel.radius"]
+    alpha = laws.ramp(t, 0.0 * alpha_t, alpha_t, p["ramp_time"])
+    w = laws.ramp(t, 0.0 * omega_t, omega_t, p["ramp_time"], delay=p["ramp_time"])
+    return w, alpha
+
+
+def ackermann(sc, p, t):
+    """Turn about a centre on the rear axle line at turn_radius (>0 left): front wheels steer, all roll."""
+    ax, ay = _axes(p)
+    radius = p["turn_radius"]
+    xc = -p["chassis.length"] / 2
+    alpha_t = jnp.arctan((ax - xc) / (radius - ay))
+    # wheel centres after steering, and their distance to the turn centre
+    wx = ax - jnp.sin(alpha_t) * _SY * _offset(p)
+    wy = ay + jnp.cos(alpha_t) * _SY * _offset(p)
+    dist = jnp.hypot(wx - xc, wy - radius)
+    yaw = (p["speed_kmh"] / 3.6) / (jnp.sign(radius) * jnp.hypot(xc, radius))
+    omega_t = jnp.abs(yaw) * dist / p["wheel.radius"] * jnp.sign(p["speed_kmh"])
+    alpha = laws.ramp(t, 0.0 * alpha_t, alpha_t, p["ramp_time"])
+    w = laws.ramp(t, 0.0 * omega_t, omega_t, p["ramp_time"], delay=p["ramp_time"])
+    return w, alpha
+
+
+def towing(sc, p, t):
+    """Straight line with the towing wheels (scenario.towing, rear by default) free: only the others drive."""
+    return straight_line(sc, p, t)
+
+
+def custom_laws(sc: Scenario, where: str = "scenario") -> tuple[laws.Law, ...]:
+    """The 8 laws of a custom scenario, MOTORS order; steering laws converted from deg to rad.
+
+    `laws:` maps `drive`, `steer` (defaults for all four) or a motor name to a law.
+    """
+    spec = dict(sc.laws or {})
+    allowed = ("drive", "steer", *MOTORS)
+    for k in spec:
+        if k not in allowed:
+            raise ConfigError(f"{where}.laws: unknown key {k!r}; allowed keys: {', '.join(allowed)}")
+    out = []
+    for motor in MOTORS:
+        group = motor.split("_")[0]
+        raw = spec.get(motor, spec.get(group, 0.0))
+        law = laws.law_from_mapping(raw, f"{where}.laws.{motor}")
+        if group == "steer":
+            law = law.scaled(np.pi / 180, laws.VALUE_KEYS)
+        out.append(law)
+    return tuple(out)
+
+
+def custom(sc, p, t):
+    """Eight motion laws from YAML: drive speeds in rad/s, steering angles in deg."""
+    ls = custom_laws(sc)
+    vals = [law(t) for law in ls]
+    return jnp.stack(vals[:4]), jnp.stack(vals[4:])
+
+
+def manual(sc, p, t):
+    """Seed scenario 0, 'manual inputs': like straight_line, every field from the config."""
+    return straight_line(sc, p, t)
+
+
+SCENARIOS: dict[str, tuple[Controls, dict[str, Any]]] = {
+    "manual": (manual, {}),
+    "straight_line": (straight_line, {}),
+    "steer_in_place": (steer_in_place, {"total_time": 3.0}),
+    "towing": (towing, {"towing": (False, False, True, True)}),
+    "ackermann": (ackermann, {"total_time": 8.0}),
+    "crab": (crab, {"total_time": 8.0, "steer_deg": 30.0}),
+    "pivot": (pivot, {"total_time": 8.0, "ramp_time": 2.0}),
+    "custom": (custom, {}),
+}
+
+
+def controls_fn(sc: Scenario) -> Callable[[Mapping[str, Any], Any], Any]:
+    """f(p, t) -> ctrl (16,) for the vehicle's actuators: omega, alpha, omega, dalpha/dt.
+
+    `p` maps scenario fields and vehicle paths (e.g. 'wheel.radius') to arrays.
+    The steering rate is the exact time derivative of the angle law (jax.jvp).
+    """
+    fn = SCENARIOS[sc.kind][0]
+
+    def ctrl(p, t):
+        t = jnp.asarray(t, dtype=jnp.result_type(float))
+        (omega, alpha), (_, dalpha) = jax.jvp(lambda tt: fn(sc, p, tt), (t,), (jnp.ones_like(t),))
+        return jnp.concatenate([omega, alpha, omega, dalpha])
+
+    return ctrl
+
+
+def make_scenario(kind: str = "straight_line", **overrides: Any) -> Scenario:
+    """A registered scenario with its own defaults, then `overrides`."""
+    if kind not in SCENARIOS:
+        raise ConfigError(f"scenario {kind!r} is not known; known: {', '.join(SCENARIOS)}")
+    sc = Scenario(kind=kind, **{**SCENARIOS[kind][1], **overrides})
+    sc.validate()
+    return sc
+
+
+def scenario_from_mapping(data: Mapping[str, Any], where: str) -> Scenario:
+    """Build a Scenario from a mapping whose `kind` (or `name`) picks the registry entry."""
+    data = dict(data)
+    kind = data.pop("kind", data.pop("name", "straight_line"))
+    if kind not in SCENARIOS:
+        raise ConfigError(f"{where}: scenario {kind!r} is not known; known: {', '.join(SCENARIOS)}")
+    if isinstance(data.get("gravity"), str):
+        g = data["gravity"].lower()
+        if g not in GRAVITY_PRESETS:
+            raise ConfigError(f"{where}: gravity: {data['gravity']!r} is not allowed; allowed: a number "
+                              f"in m/s^2 or one of {', '.join(GRAVITY_PRESETS)}")
+        data["gravity"] = GRAVITY_PRESETS[g]
+    return from_mapping(Scenario, {"kind": kind, **SCENARIOS[kind][1], **data}, where)
+
+
+def load_scenario(name_or_path: str | Path) -> Scenario:
+    """A registered scenario by name, or a scenario YAML file."""
+    s = str(name_or_path)
+    if s in SCENARIOS:
+        return make_scenario(s)
+    if s.endswith((".yaml", ".yml")) or Path(s).exists():
+        return scenario_from_mapping(load_yaml(s), s)
+    raise ConfigError(f"scenario {s!r} is neither a known scenario nor a YAML file; known: "
+                      f"{', '.join(SCENARIOS)}")

@@ -1,0 +1,186 @@
+"""Per-variant motor-torque statistics, reduced step by step in a fixed-size carry.
+
+`init`, `update` and `finalize` are written once over an array module `xp` (numpy
+or jax.numpy) and leading batch dimensions `...`: the MJX rollout calls them
+inside `lax.scan` (vmapped, no batch dims), the MuJoCo C backend on (n, ...)
+numpy arrays. Memory does not grow with the number of steps.
+
+Windows and filters (all recorded in the Parquet metadata):
+- the steady window [window_start, window_end] in s (default: second half of the run);
+- the 95th percentile of |torque| is taken over at most `p95_samples` samples of
+  the steady window, evenly strided (the stride is recorded; exact when the
+  window has fewer steps);
+- `lowpass_s`: time constant of a first-order low-pass filter applied to each
+  torque before `peak_lp` (default 0.05 s: a motor and its drive respond to
+  tens of ms, not to one 5 ms step, and the filter removes float32 chatter).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from batchveh.vehicle import CORNERS, MOTORS
+
+CHANNELS = (*MOTORS, "drive_sum")  # 8 motors and the four-wheel drive-torque sum
+N_CH = len(CHANNELS)
+STATUS = {0: "ok", 1: "diverged", 2: "flipped"}
+FLIP_DEG = 60.0  # roll or pitch beyond which the vehicle counts as flipped
+SLIP_LIMIT = 0.1  # |slip ratio| above which a variant is flagged as slipping
+
+
+@dataclass(frozen=True)
+class StatsConfig:
+    """Static settings of the reduction (they fix array shapes)."""
+
+    dt: float  # time step, s
+    n_steps: int
+    window_start: float  # s
+    window_end: float  # s
+    wheel_radius: float = 0.195  # m, only for the slip ratio's rim speed
+    lowpass_s: float = 0.05
+    p95_samples: int = 256
+
+    @staticmethod
+    def make(dt: float, n_steps: int, window: tuple[float, float] | None = None, **kw: Any) -> StatsConfig:
+        total = dt * n_steps
+        start, end = window if window is not None else (total / 2, total)
+        return StatsConfig(dt=dt, n_steps=n_steps, window_start=start, window_end=min(end, total), **kw)
+
+    @property
+    def first(self) -> int:
+        """First step index (0-based, the sample after step i is at t = (i+1) dt) inside the window."""
+        return max(0, math.ceil(self.window_start / self.dt - 1 - 1e-9))
+
+    @property
+    def last(self) -> int:
+        return min(self.n_steps - 1, math.floor(self.window_end / self.dt - 1 + 1e-9))
+
+    @property
+    def window_steps(self) -> int:
+        return max(0, self.last - self.first + 1)
+
+    @property
+    def stride(self) -> int:
+        return max(1, math.ceil(self.window_steps / self.p95_samples))
+
+    @property
+    def n_buf(self) -> int:
+        return max(1, math.ceil(self.window_steps / self.stride))
+
+
+def init(cfg: StatsConfig, batch: tuple[int, ...], xp=np, dtype=None) -> dict[str, Any]:
+    """Empty carry for `batch` leading dims."""
+    dtype = dtype or xp.float64
+
+    def z(*shape, fill=0.0):
+        return xp.full((*batch, *shape), fill, dtype=dtype)
+
+    return {
+        "n": z(), "sum": z(N_CH), "sumsq": z(N_CH), "min": z(N_CH, fill=np.inf), "max": z(N_CH, fill=-np.inf),
+        "buf": z(cfg.n_buf, N_CH), "peak_all": z(N_CH), "lp": z(N_CH), "lp_peak": z(N_CH), "lp_peak_all": z(N_CH),
+        "energy": z(4), "power_peak": z(4), "distance": z(), "roll": z(), "pitch": z(), "bad": z(),
+        "v_fwd": z(), "v_rim": z(), "speed_err": z(4), "speed_ref": z(4), "steer_err": z(4),
+        "pose": z(3),
+    }
+
+
+def _roll_pitch_yaw(q, xp):
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    roll = xp.arctan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = xp.arcsin(xp.clip(2 * (w * y - z * x), -1.0, 1.0))
+    yaw = xp.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return roll, pitch, yaw
+
+
+def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> dict[str, Any]:
+    """Fold one step's sample `s` (after step i) into carry `c`; returns a new carry.
+
+    s: tau (..., 8) N m; omega (..., 4) wheel speed rad/s; ref (..., 8) imposed
+    omega (rad/s) and alpha (rad); alpha (..., 4) steering angle rad; pos (..., 3) m;
+    quat (..., 4); vel (..., 3) chassis linear velocity m/s (world).
+    """
+    tau = xp.concatenate([s["tau"], s["tau"][..., :4].sum(-1, keepdims=True)], axis=-1)
+    absx = xp.abs(tau)
+    inw = (i >= cfg.first) & (i <= cfg.last)
+    w = xp.where(inw, 1.0, 0.0)
+    wv = w[..., None] if hasattr(w, "ndim") and w.ndim else w
+    out = dict(c)
+    out["n"] = c["n"] + w
+    out["sum"] = c["sum"] + wv * tau
+    out["sumsq"] = c["sumsq"] + wv * tau * tau
+    out["min"] = xp.where(inw, xp.minimum(c["min"], tau), c["min"])
+    out["max"] = xp.where(inw, xp.maximum(c["max"], tau), c["max"])
+    slot = xp.where(inw & ((i - cfg.first) % cfg.stride == 0), (i - cfg.first) // cfg.stride, -1)
+    hit = (xp.arange(cfg.n_buf) == slot)[:, None]
+    out["buf"] = xp.where(hit, absx[..., None, :], c["buf"])
+    out["peak_all"] = xp.maximum(c["peak_all"], absx)
+    a = cfg.dt / (cfg.lowpass_s + cfg.dt)
+    lp = c["lp"] + a * (tau - c["lp"])
+    out["lp"] = lp
+    out["lp_peak"] = xp.where(inw, xp.maximum(c["lp_peak"], xp.abs(lp)), c["lp_peak"])
+    out["lp_peak_all"] = xp.maximum(c["lp_peak_all"], xp.abs(lp))
+    power = s["tau"][..., :4] * s["omega"]
+    out["energy"] = c["energy"] + power * cfg.dt
+    out["power_peak"] = xp.maximum(c["power_peak"], xp.abs(power))
+    vel = s["vel"]
+    out["distance"] = c["distance"] + xp.sqrt(vel[..., 0] ** 2 + vel[..., 1] ** 2) * cfg.dt
+    roll, pitch, yaw = _roll_pitch_yaw(s["quat"], xp)
+    out["roll"] = xp.maximum(c["roll"], xp.abs(roll))
+    out["pitch"] = xp.maximum(c["pitch"], xp.abs(pitch))
+    finite = xp.all(xp.isfinite(tau), axis=-1) & xp.all(xp.isfinite(s["pos"]), axis=-1)
+    out["bad"] = xp.maximum(c["bad"], xp.where(finite, 0.0, 1.0))
+    v_fwd = vel[..., 0] * xp.cos(yaw) + vel[..., 1] * xp.sin(yaw)
+    out["v_fwd"] = c["v_fwd"] + w * v_fwd
+    out["v_rim"] = c["v_rim"] + w * s["omega"].mean(-1) * cfg.wheel_radius
+    out["speed_err"] = c["speed_err"] + wv * (s["omega"] - s["ref"][..., :4])
+    out["speed_ref"] = c["speed_ref"] + wv * s["ref"][..., :4]
+    out["steer_err"] = xp.where(inw, xp.maximum(c["steer_err"], xp.abs(s["alpha"] - s["ref"][..., 4:])),
+                                c["steer_err"])
+    out["pose"] = xp.stack([s["pos"][..., 0], s["pos"][..., 1], yaw], axis=-1)
+    return out
+
+
+def finalize(c: dict[str, Any], cfg: StatsConfig, xp=np) -> dict[str, Any]:
+    """Turn the carry into named columns, each of shape (...)."""
+    n = xp.maximum(c["n"], 1.0)[..., None]
+    mean = c["sum"] / n
+    rms = xp.sqrt(xp.maximum(c["sumsq"] / n, 0.0))
+    p95 = xp.percentile(c["buf"], 95.0, axis=-2)
+    peak = xp.maximum(xp.abs(c["min"]), xp.abs(c["max"]))
+    cols: dict[str, Any] = {}
+    for k, name in enumerate(CHANNELS):
+        cols[f"{name}_mean"] = mean[..., k]
+        cols[f"{name}_rms"] = rms[..., k]
+        cols[f"{name}_min"] = c["min"][..., k]
+        cols[f"{name}_max"] = c["max"][..., k]
+        cols[f"{name}_peak"] = peak[..., k]
+        cols[f"{name}_p95"] = p95[..., k]
+        cols[f"{name}_peak_all"] = c["peak_all"][..., k]
+        cols[f"{name}_peak_lp"] = c["lp_peak"][..., k]
+        cols[f"{name}_peak_lp_all"] = c["lp_peak_all"][..., k]
+    for k, corner in enumerate(CORNERS):
+        cols[f"drive_{corner}_energy"] = c["energy"][..., k]
+        cols[f"drive_{corner}_power_peak"] = c["power_peak"][..., k]
+    nw = xp.maximum(c["n"], 1.0)
+    v_fwd, v_rim = c["v_fwd"] / nw, c["v_rim"] / nw
+    moving = xp.abs(v_rim) > 1e-3
+    cols["distance"] = c["distance"]
+    cols["mean_speed"] = v_fwd
+    cols["slip_ratio"] = xp.where(moving, 1.0 - v_fwd / xp.where(moving, v_rim, 1.0), 0.0)
+    cols["slipping"] = xp.abs(cols["slip_ratio"]) > SLIP_LIMIT
+    ref = xp.abs(c["speed_ref"] / n)
+    err = xp.abs(c["speed_err"] / n)
+    cols["speed_track_err"] = xp.max(xp.where(ref > 1e-6, err / xp.where(ref > 1e-6, ref, 1.0), err), axis=-1)
+    cols["steer_track_err_deg"] = xp.rad2deg(xp.max(c["steer_err"], axis=-1))
+    cols["max_roll_deg"] = xp.rad2deg(c["roll"])
+    cols["max_pitch_deg"] = xp.rad2deg(c["pitch"])
+    cols["final_x"] = c["pose"][..., 0]
+    cols["final_y"] = c["pose"][..., 1]
+    cols["final_yaw_deg"] = xp.rad2deg(c["pose"][..., 2])
+    flipped = (cols["max_roll_deg"] > FLIP_DEG) | (cols["max_pitch_deg"] > FLIP_DEG)
+    cols["status_code"] = xp.where(c["bad"] > 0, 1, xp.where(flipped, 2, 0))
+    return cols

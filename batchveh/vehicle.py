@@ -1,0 +1,265 @@
+"""The four-wheeled vehicle of the seed: definition, YAML loading and MuJoCo model.
+
+Frame and conventions (the seed's, see README "Conventions"):
+- Z up, X forward, Y left. Lengths in m, masses in kg.
+- The vehicle is a chassis box on a free joint, four hubs on vertical steering
+  hinges at the chassis corners (+-length/2, +-width/2), and four wheel cylinders
+  on spin hinges about the hub's Y axis. Wheel centres sit at z = wheel radius,
+  touching the ground plane at z = 0.
+- Drive motor: positive angular speed rolls the wheel forward (+X); its torque is
+  the torque on the wheel about +Y (hub frame) from its motor, positive when it
+  drives the vehicle forward or up a slope.
+- Steering motor: positive angle turns the wheel counter-clockwise seen from
+  above (towards +Y); its torque is about +Z on the hub from the chassis.
+
+Each motor is a stiff PD tracking servo built from two MuJoCo actuators on the
+same joint, tau = kp * (theta_ref - theta) + kv * (omega_ref - omega). For a
+drive, theta_ref is the integral of the imposed speed (an integrator actuator);
+for steering, omega_ref is the time derivative of the imposed angle. The motor
+torque read out is the sum of both actuators on the joint (qfrc_actuator).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from batchveh.config import ConfigError, field, from_mapping, load_yaml
+
+CORNERS = ("lf", "rf", "lr", "rr")
+# (x sign, y sign) of each corner
+CORNER_SIGNS = {"lf": (1, 1), "rf": (1, -1), "lr": (-1, 1), "rr": (-1, -1)}
+MOTORS = tuple(f"drive_{c}" for c in CORNERS) + tuple(f"steer_{c}" for c in CORNERS)
+GROUND = "ground"
+
+
+@dataclass(frozen=True)
+class Chassis:
+    """Chassis box, centred at (x_cg, y_cg, z_cg); it does not collide."""
+
+    length: float = field(1.0, unit="m", gt=0)
+    width: float = field(0.6, unit="m", gt=0)
+    height: float = field(0.15, unit="m", gt=0)
+    mass: float = field(88.4, unit="kg", gt=0)
+    x_cg: float = field(0.0, unit="m")
+    y_cg: float = field(0.0, unit="m")
+    z_cg: float = field(0.355, unit="m", gt=0)
+
+
+@dataclass(frozen=True)
+class Wheel:
+    """Wheel cylinder, axis along Y; centre at (+-x_cg, +-y_cg, radius)."""
+
+    radius: float = field(0.195, unit="m", gt=0)
+    width: float = field(0.09, unit="m", gt=0)
+    mass: float = field(3.0, unit="kg", gt=0)
+    x_cg: float = field(0.5, unit="m", gt=0)
+    y_cg: float = field(0.4, unit="m", gt=0)
+
+
+@dataclass(frozen=True)
+class Hub:
+    """Hub cylinder, axis along Y, centre at (+-wheel.x_cg, +-y_cg, wheel radius)."""
+
+    radius: float = field(0.063, unit="m", gt=0)
+    length: float = field(0.258, unit="m", gt=0)
+    mass: float = field(11.1, unit="kg", gt=0)
+    y_cg: float = field(0.226, unit="m", gt=0)
+
+
+@dataclass(frozen=True)
+class Payload:
+    """A point-like payload fixed to the chassis; position relative to the chassis centre."""
+
+    mass: float = field(0.0, unit="kg", ge=0)
+    x: float = field(0.0, unit="m")
+    y: float = field(0.0, unit="m")
+    z: float = field(0.0, unit="m")
+
+
+@dataclass(frozen=True)
+class Motors:
+    """Servo gains of the 8 motors and the rotor inertia reflected at each joint.
+
+    The defaults track within 1e-5 relative speed and 0.1 deg on a 20 deg slope
+    at mu 0.9 (tests/test_physics.py) and stay stable with implicitfast at dt = 5 ms.
+    The armature (e.g. a 2e-4 kg m^2 rotor behind a 32:1 gearbox) damps the
+    stick-slip cycle of four wheels locked to one speed; with 0.05 the wheels
+    chattered near the friction limit (README, "Servo choice").
+    """
+
+    drive_kp: float = field(5000.0, unit="N m/rad", ge=0)
+    drive_kv: float = field(500.0, unit="N m s/rad", ge=0)
+    steer_kp: float = field(20000.0, unit="N m/rad", ge=0)
+    steer_kv: float = field(300.0, unit="N m s/rad", ge=0)
+    armature: float = field(0.2, unit="kg m^2", ge=0, doc="rotor inertia reflected through the gearbox")
+
+
+@dataclass(frozen=True)
+class Vehicle:
+    """The whole vehicle; the defaults are the seed's vehicle_params.yaml."""
+
+    chassis: Chassis = Chassis()
+    wheel: Wheel = Wheel()
+    hub: Hub = Hub()
+    payload: Payload = Payload()
+    motors: Motors = Motors()
+
+    @property
+    def total_mass(self) -> float:
+        """Total mass in kg."""
+        return self.chassis.mass + 4 * (self.wheel.mass + self.hub.mass) + self.payload.mass
+
+    @property
+    def steer_offset(self) -> float:
+        """Lateral distance in m from a steering axis to its wheel centre (scrub radius)."""
+        return self.wheel.y_cg - self.chassis.width / 2
+
+    def validate(self, where: str = "vehicle") -> None:
+        """Raise ConfigError where the parts do not fit together."""
+        if self.wheel.radius <= self.hub.radius:
+            raise ConfigError(f"{where}: wheel.radius {self.wheel.radius!r} must exceed hub.radius "
+                              f"{self.hub.radius!r}")
+
+
+def load_vehicle(path: str | Path | None) -> Vehicle:
+    """Load a vehicle YAML (shaped like the seed's vehicle_params.yaml); None gives the default."""
+    if path is None:
+        return Vehicle()
+    return vehicle_from_mapping(load_yaml(path), str(path))
+
+
+def vehicle_from_mapping(data: dict[str, Any], where: str) -> Vehicle:
+    """Build a Vehicle from a nested mapping; errors name `where` and the key."""
+    return from_mapping(Vehicle, data, where)
+
+
+def replace_path(obj: Any, dotted: str, value: Any) -> Any:
+    """Return a copy of a dataclass tree with the field at `dotted` (e.g. 'wheel.radius') set."""
+    head, _, rest = dotted.partition(".")
+    if rest:
+        return dataclasses.replace(obj, **{head: replace_path(getattr(obj, head), rest, value)})
+    return dataclasses.replace(obj, **{head: value})
+
+
+def numeric_paths(obj: Any, prefix: str = "") -> dict[str, Any]:
+    """Map every numeric leaf of a dataclass tree to its field metadata, by dotted path."""
+    out = {}
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if dataclasses.is_dataclass(value):
+            out.update(numeric_paths(value, f"{prefix}{f.name}."))
+        elif f.metadata:
+            out[f"{prefix}{f.name}"] = dict(f.metadata)
+    return out
+
+
+def _fmt(*xs: float) -> str:
+    return " ".join(f"{x:.10g}" for x in xs)
+
+
+def mjcf(v: Vehicle, *, time_step: float = 0.005, friction: float = 0.7,
+         gravity: tuple[float, float, float] = (0.0, 0.0, -9.81), ground_contacts_only: bool = True) -> str:
+    """MJCF text of the vehicle on a ground plane.
+
+    The ground geom has priority 1, so the contact friction is the ground's
+    `friction` whatever the wheels carry (MuJoCo otherwise takes the larger).
+    With `ground_contacts_only`, wheels collide with the ground and nothing else.
+    """
+    c, w, h, p, mo = v.chassis, v.wheel, v.hub, v.payload, v.motors
+    # contype/conaffinity bits: wheels are 1, the ground 2; a wheel meets the ground
+    # (1 & 1) but not another wheel (1 & 2 = 0) unless ground_contacts_only is off.
+    wheel_aff = 2 if ground_contacts_only else 3
+    bodies = []
+    for name in CORNERS:
+        sx, sy = CORNER_SIGNS[name]
+        axis = np.array([sx * c.length / 2, sy * c.width / 2])  # steering axis, world x, y
+        hub_local = np.array([sx * w.x_cg, sy * h.y_cg]) - axis
+        wheel_local = np.array([sx * w.x_cg, sy * w.y_cg]) - axis
+        bodies.append(f"""
+      <body name="hub_{name}" pos="{_fmt(axis[0] - c.x_cg, axis[1] - c.y_cg, w.radius - c.z_cg)}">
+        <joint name="steer_{name}" type="hinge" axis="0 0 1" armature="{mo.armature:.10g}"/>
+        <geom name="hub_{name}" type="cylinder" size="{_fmt(h.radius, h.length / 2)}"
+              pos="{_fmt(hub_local[0], hub_local[1], 0)}" zaxis="0 1 0" mass="{h.mass:.10g}"
+              contype="0" conaffinity="0" rgba=".55 .55 .6 1"/>
+        <body name="wheel_{name}" pos="{_fmt(wheel_local[0], wheel_local[1], 0)}">
+          <joint name="drive_{name}" type="hinge" axis="0 1 0" armature="{mo.armature:.10g}"/>
+          <geom name="wheel_{name}" type="cylinder" size="{_fmt(w.radius, w.width / 2)}" zaxis="0 1 0"
+                mass="{w.mass:.10g}" contype="1" conaffinity="{wheel_aff}" friction="1 0 0"
+                rgba=".1 .1 .1 1"/>
+        </body>
+      </body>""")
+    act = []
+    for name in CORNERS:
+        act.append(f'<general name="drive_{name}_v" joint="drive_{name}" gainprm="{mo.drive_kv:.10g}" '
+                   f'biastype="affine" biasprm="0 0 {-mo.drive_kv:.10g}"/>')
+    for name in CORNERS:
+        act.append(f'<general name="steer_{name}_p" joint="steer_{name}" gainprm="{mo.steer_kp:.10g}" '
+                   f'biastype="affine" biasprm="0 {-mo.steer_kp:.10g} 0"/>')
+    for name in CORNERS:
+        act.append(f'<general name="drive_{name}_p" joint="drive_{name}" dyntype="integrator" '
+                   f'gainprm="{mo.drive_kp:.10g}" biastype="affine" biasprm="0 {-mo.drive_kp:.10g} 0"/>')
+    for name in CORNERS:
+        act.append(f'<general name="steer_{name}_v" joint="steer_{name}" gainprm="{mo.steer_kv:.10g}" '
+                   f'biastype="affine" biasprm="0 0 {-mo.steer_kv:.10g}"/>')
+    return f"""<mujoco model="batchveh">
+  <option timestep="{time_step:.10g}" integrator="implicitfast" gravity="{_fmt(*gravity)}"/>
+  <visual><global offwidth="640" offheight="480"/></visual>
+  <worldbody>
+    <light pos="0 0 6" dir="0 0 -1" directional="true"/>
+    <geom name="{GROUND}" type="plane" size="0 0 1" priority="1" friction="{friction:.10g} 0 0"
+          contype="2" conaffinity="1" rgba=".6 .65 .6 1"/>
+    <body name="chassis" pos="{_fmt(c.x_cg, c.y_cg, c.z_cg)}">
+      <freejoint name="chassis"/>
+      <geom name="chassis" type="box" size="{_fmt(c.length / 2, c.width / 2, c.height / 2)}"
+            mass="{c.mass:.10g}" contype="0" conaffinity="0" rgba=".8 .8 .8 1"/>
+      <geom name="payload" type="sphere" size="0.02" pos="{_fmt(p.x, p.y, p.z)}" mass="{p.mass:.10g}"
+            contype="0" conaffinity="0" rgba=".9 .3 .2 1"/>{''.join(bodies)}
+    </body>
+  </worldbody>
+  <actuator>
+    {chr(10).join('    ' + a for a in act).strip()}
+  </actuator>
+</mujoco>
+"""
+
+
+def build_model(v: Vehicle, **kw: Any) -> mujoco.MjModel:
+    """Compile the vehicle into an MjModel; keyword arguments go to `mjcf`."""
+    return mujoco.MjModel.from_xml_string(mjcf(v, **kw))
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Indices into MuJoCo arrays, shared by every model of one vehicle structure."""
+
+    motor_dof: np.ndarray  # (8,) dof of each motor joint, in MOTORS order
+    motor_qpos: np.ndarray  # (8,) qpos address of each motor joint
+    drive_vel_act: np.ndarray  # (4,) actuator ids, velocity part of the drives
+    drive_pos_act: np.ndarray  # (4,) integrator (position) part of the drives
+    steer_pos_act: np.ndarray
+    steer_vel_act: np.ndarray
+    ground_geom: int
+    wheel_geoms: np.ndarray
+
+
+def layout(m: mujoco.MjModel) -> Layout:
+    """Look up the indices batchveh reads and writes, by name."""
+    jid = [m.joint(n).id for n in MOTORS]
+
+    def acts(kind: str, part: str) -> np.ndarray:
+        return np.array([m.actuator(f"{kind}_{c}_{part}").id for c in CORNERS])
+
+    return Layout(
+        motor_dof=np.array([m.jnt_dofadr[j] for j in jid]),
+        motor_qpos=np.array([m.jnt_qposadr[j] for j in jid]),
+        drive_vel_act=acts("drive", "v"), drive_pos_act=acts("drive", "p"),
+        steer_pos_act=acts("steer", "p"), steer_vel_act=acts("steer", "v"),
+        ground_geom=m.geom(GROUND).id,
+        wheel_geoms=np.array([m.geom(f"wheel_{c}").id for c in CORNERS]),
+    )
