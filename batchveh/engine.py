@@ -1,0 +1,188 @@
+"""The sweep engine: run chunks of variants on MJX or on MuJoCo C (`mujoco.batch`).
+
+Both backends return the same columns (`stats.finalize`), one (n,) array each.
+
+- `MjxBackend`: one `jit(vmap(rollout))` per chunk shape; the model fields that
+  vary are batched with an `in_axes` tree; time runs in `lax.scan` and the
+  statistics live in its carry. A short last chunk is padded to the chunk shape
+  (no second compile). Variants are sharded over all local devices. On the CPU,
+  `lax.map` runs the vmap in blocks of 64: wider Newton vmaps hung in jaxlib's
+  batched Cholesky there.
+- `MujocoBackend`: `mujoco.batch.Batch` on all CPU threads; per-variant model
+  fields through `expand()`; the same statistics reduced with numpy each step.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+
+from batchveh import stats
+from batchveh.scenarios import Scenario, controls_fn
+from batchveh.variants import VariantBatch
+from batchveh.vehicle import layout
+
+CPU_BLOCK = 64
+
+
+def has_gpu() -> bool:
+    """Whether JAX sees an accelerator."""
+    try:
+        return any(d.platform != "cpu" for d in jax.devices())
+    except RuntimeError:
+        return False
+
+
+def resolve_backend(name: str) -> str:
+    """'auto' is mjx when JAX sees a GPU, otherwise mujoco."""
+    if name == "auto":
+        return "mjx" if has_gpu() else "mujoco"
+    return name
+
+
+def _pad(batch: VariantBatch, size: int) -> VariantBatch:
+    """Repeat the last variant so the chunk has `size` variants (same compiled shape)."""
+    extra = size - batch.n
+    if extra <= 0:
+        return batch
+
+    def pad(a):
+        return np.concatenate([a, np.repeat(a[-1:], extra, axis=0)], axis=0)
+
+    return VariantBatch(batch.model, {k: pad(v) for k, v in batch.fields.items()},
+                        {k: pad(v) for k, v in batch.params.items()}, size)
+
+
+class MjxBackend:
+    """MJX on the default JAX device(s)."""
+
+    name = "mjx"
+
+    def __init__(self, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int):
+        self.scenario, self.cfg = scenario, cfg
+        self.devices = jax.devices()
+        self.on_cpu = self.devices[0].platform == "cpu"
+        nd = len(self.devices)
+        self.chunk_size = max(nd, (chunk_size // nd) * nd)
+        self._fn: dict[Any, Any] = {}
+        self.compile_s = 0.0
+
+    def _compiled(self, batch: VariantBatch, mx, axes, params):
+        from batchveh.rollout import mjx_stats
+
+        key = (tuple(sorted(batch.fields)), batch.n)
+        if key in self._fn:
+            return self._fn[key]
+        lay = layout(batch.model)
+        one = lambda m, p: mjx_stats(m, p, scenario=self.scenario, cfg=self.cfg, lay=lay)  # noqa: E731
+        if self.on_cpu and batch.n > CPU_BLOCK:
+            # lax.map scans over blocks of CPU_BLOCK variants, vmapping `one` within a block
+            tree = jax.tree_util.tree_structure(mx)
+            varying = [i for i, a in enumerate(tree.flatten_up_to(axes)) if a == 0]
+
+            def run(m, p):
+                leaves_all = jax.tree_util.tree_leaves(m)
+
+                def one_of(x):
+                    leaves = list(leaves_all)
+                    for j, i in enumerate(varying):
+                        leaves[i] = x[0][j]
+                    return one(tree.unflatten(leaves), x[1])
+
+                return jax.lax.map(one_of, ([leaves_all[i] for i in varying], p), batch_size=CPU_BLOCK)
+
+            fn = jax.jit(run)
+        else:
+            fn = jax.jit(jax.vmap(one, in_axes=(axes, 0)))
+        import time
+
+        t0 = time.perf_counter()
+        compiled = fn.lower(mx, params).compile()
+        self.compile_s += time.perf_counter() - t0
+        self._fn[key] = compiled
+        return compiled
+
+    def run(self, batch: VariantBatch) -> dict[str, np.ndarray]:
+        from batchveh.rollout import put_batch
+
+        n = batch.n
+        batch = _pad(batch, self.chunk_size)
+        mx, axes = put_batch(batch)
+        dtype = jnp.result_type(float)
+        params = {k: jnp.asarray(v, dtype) for k, v in batch.params.items()}
+        if len(self.devices) > 1:
+            from jax.sharding import Mesh, NamedSharding, PartitionSpec
+
+            mesh = Mesh(np.array(self.devices), ("v",))
+            shard = NamedSharding(mesh, PartitionSpec("v"))
+            params = jax.device_put(params, shard)
+            mx = jax.tree_util.tree_map(lambda x, a: jax.device_put(x, shard) if a == 0 else x, mx, axes,
+                                        is_leaf=lambda x: x is None)
+        fn = self._compiled(batch, mx, axes, params)
+        out = jax.device_get(fn(mx, params))
+        return {k: np.asarray(v)[:n] for k, v in out.items()}
+
+
+class MujocoBackend:
+    """MuJoCo C through mujoco.batch.Batch on all CPU threads (float64)."""
+
+    name = "mujoco"
+    compile_s = 0.0
+
+    def __init__(self, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int, nthread: int = 0):
+        self.scenario, self.cfg, self.chunk_size = scenario, cfg, chunk_size
+        self.nthread = nthread or os.cpu_count() or 1
+        ctrl = controls_fn(scenario)
+        # controls for a block of steps for every variant, evaluated by JAX in float64-free numpy
+        self._ctrl = jax.jit(jax.vmap(jax.vmap(ctrl, in_axes=(None, 0)), in_axes=(0, None)))
+
+    def run(self, batch: VariantBatch, block: int = 250) -> dict[str, np.ndarray]:
+        from mujoco.batch import Batch, SimulationError
+
+        m = batch.model
+        lay = layout(m)
+        b = Batch(m, nsim=batch.n, nthread=self.nthread)
+        for name, values in batch.fields.items():
+            b.expand(name)[:] = values
+        b.reset()
+        qpos, qvel, qfrc = b.bind("qpos"), b.bind("qvel"), b.bind("qfrc_actuator")
+        acc = stats.init(self.cfg, (batch.n,))
+        params = {k: jnp.asarray(v) for k, v in batch.params.items()}
+        dead = np.zeros(batch.n, bool)
+        dt = m.opt.timestep
+        for start in range(0, self.cfg.n_steps, block):
+            steps = np.arange(start, min(start + block, self.cfg.n_steps))
+            ctrls = np.asarray(self._ctrl(params, jnp.asarray(steps * dt)), np.float64)
+            for k, i in enumerate(steps):
+                b.ctrl = ctrls[:, k]
+                live = None if not dead.any() else np.flatnonzero(~dead)
+                try:
+                    b.step(ids=live)
+                except SimulationError:
+                    dead |= np.asarray(b.status) != 0
+                sample = {"tau": qfrc[:, lay.motor_dof], "omega": qvel[:, lay.motor_dof[:4]],
+                          "alpha": qpos[:, lay.motor_qpos[4:]], "ref": ctrls[:, k, :8], "pos": qpos[:, 0:3],
+                          "quat": qpos[:, 3:7], "vel": qvel[:, 0:3]}
+                if dead.any():
+                    sample = {kk: np.where(dead.reshape(-1, *([1] * (v.ndim - 1))), np.nan, v)
+                              for kk, v in sample.items()}
+                acc = stats.update(acc, sample, int(i), self.cfg)
+        return stats.finalize(acc, self.cfg)
+
+
+def make_backend(name: str, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int | None):
+    """Build the named backend ('mjx' or 'mujoco') with a default chunk size."""
+    if name == "mjx":
+        default = 8192 if has_gpu() else 256
+        return MjxBackend(scenario, cfg, chunk_size or default)
+    return MujocoBackend(scenario, cfg, chunk_size or 1024)
+
+
+def run_params(batch: VariantBatch) -> Mapping[str, Any]:
+    return batch.params
