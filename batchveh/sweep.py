@@ -113,11 +113,9 @@ def run_sweep(spec: SweepSpec, *, out: Path | None = None, backend: str | None =
         batch = make_batch(spec.vehicle, sc, cols_in)
         res = engine.run(batch)
         wall = time.perf_counter() - t0
-        frame = rows.reset_index(drop=True).copy()
-        for k, v in res.items():
-            if k != "status_code":
-                frame[k] = np.asarray(v)
-        frame["status"] = [stats.STATUS[int(s)] for s in np.asarray(res["status_code"])]
+        cols = {k: np.asarray(v) for k, v in res.items() if k != "status_code"}
+        cols["status"] = [stats.STATUS[int(s)] for s in np.asarray(res["status_code"])]
+        frame = pd.concat([rows.reset_index(drop=True), pd.DataFrame(cols)], axis=1)
         meta = {**base_meta, "chunk": c, "chunk_wall_s": wall, "compile_s": engine.compile_s}
         io.write_part(frame, out / f"part-{c:05d}.parquet", param_units, meta)
         ran += len(rows)
