@@ -15,7 +15,6 @@ Both backends return the same columns (`stats.finalize`), one (n,) array each.
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
 from typing import Any
 
 import jax
@@ -142,7 +141,7 @@ class MujocoBackend:
         # controls for a block of steps for every variant, evaluated by JAX in float64-free numpy
         self._ctrl = jax.jit(jax.vmap(jax.vmap(ctrl, in_axes=(None, 0)), in_axes=(0, None)))
 
-    def run(self, batch: VariantBatch, block: int = 250) -> dict[str, np.ndarray]:
+    def run(self, batch: VariantBatch, block: int = 100) -> dict[str, np.ndarray]:
         from mujoco.batch import Batch, SimulationError
 
         m = batch.model
@@ -151,38 +150,59 @@ class MujocoBackend:
         for name, values in batch.fields.items():
             b.expand(name)[:] = values
         b.reset()
-        qpos, qvel, qfrc = b.bind("qpos"), b.bind("qvel"), b.bind("qfrc_actuator")
         acc = stats.init(self.cfg, (batch.n,))
         params = {k: jnp.asarray(v) for k, v in batch.params.items()}
-        dead = np.zeros(batch.n, bool)
         dt = m.opt.timestep
+        record = ("qpos", "qvel", "qfrc_actuator")
+        bufs = None
         for start in range(0, self.cfg.n_steps, block):
             steps = np.arange(start, min(start + block, self.cfg.n_steps))
             ctrls = np.asarray(self._ctrl(params, jnp.asarray(steps * dt)), np.float64)
-            for k, i in enumerate(steps):
-                b.ctrl = ctrls[:, k]
-                live = None if not dead.any() else np.flatnonzero(~dead)
-                try:
-                    b.step(ids=live)
-                except SimulationError:
-                    dead |= np.asarray(b.status) != 0
-                sample = {"tau": qfrc[:, lay.motor_dof], "omega": qvel[:, lay.motor_dof[:4]],
-                          "alpha": qpos[:, lay.motor_qpos[4:]], "ref": ctrls[:, k, :8], "pos": qpos[:, 0:3],
-                          "quat": qpos[:, 3:7], "vel": qvel[:, 0:3]}
-                if dead.any():
-                    sample = {kk: np.where(dead.reshape(-1, *([1] * (v.ndim - 1))), np.nan, v)
-                              for kk, v in sample.items()}
-                acc = stats.update(acc, sample, int(i), self.cfg)
+            if bufs is None or bufs["qpos"].shape[1] != len(steps):
+                bufs = {r: np.empty((batch.n, len(steps), getattr(b.model, "nq" if r == "qpos" else "nv")))
+                        for r in record}
+            try:
+                rec = b.rollout(len(steps), control=ctrls, record=record, out=bufs)
+            except SimulationError:
+                rec = bufs  # failed simulations are marked below; their records repeat their last state
+            failed = np.asarray(b.status) != 0
+            qpos, qvel, qfrc = rec["qpos"], rec["qvel"], rec["qfrc_actuator"]
+            sample = {"tau": qfrc[..., lay.motor_dof], "omega": qvel[..., lay.motor_dof[:4]],
+                      "alpha": qpos[..., lay.motor_qpos[4:]], "ref": ctrls[..., :8], "pos": qpos[..., 0:3],
+                      "quat": qpos[..., 3:7], "vel": qvel[..., 0:3]}
+            if failed.any():
+                sample["tau"] = np.where(failed[:, None, None], np.nan, sample["tau"])
+            acc = stats.update(acc, sample, steps, self.cfg)
         return stats.finalize(acc, self.cfg)
 
 
-def make_backend(name: str, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int | None):
-    """Build the named backend ('mjx' or 'mujoco') with a default chunk size."""
+GPU_CHUNK_MAX = 65536  # throughput is flat beyond this on one H200 (benchmarks/RESULTS.md)
+GPU_BYTES_PER_VARIANT = 16e3  # measured peak device memory per variant (0.53 GB at 32768)
+
+
+def auto_chunk(name: str, n_variants: int | None) -> int:
+    """Variants per chunk: as many as fit (GPU) in equal chunks, with little padding."""
+    if name == "mujoco":
+        return 1024
+    if not has_gpu():
+        return 256
+    limit = GPU_CHUNK_MAX
+    stats_ = jax.devices()[0].memory_stats() or {}
+    if "bytes_limit" in stats_:
+        limit = min(limit, int(0.5 * stats_["bytes_limit"] / GPU_BYTES_PER_VARIANT))
+    limit *= len(jax.devices())
+    if not n_variants:
+        return limit
+    n_chunks = -(-n_variants // limit)
+    per = -(-n_variants // n_chunks)
+    return -(-per // 256) * 256
+
+
+def make_backend(name: str, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int | None,
+                 n_variants: int | None = None):
+    """Build the named backend ('mjx' or 'mujoco'); chunk size automatic unless given."""
+    chunk = chunk_size or auto_chunk(name, n_variants)
     if name == "mjx":
-        default = 8192 if has_gpu() else 256
-        return MjxBackend(scenario, cfg, chunk_size or default)
-    return MujocoBackend(scenario, cfg, chunk_size or 1024)
+        return MjxBackend(scenario, cfg, chunk)
+    return MujocoBackend(scenario, cfg, chunk)
 
-
-def run_params(batch: VariantBatch) -> Mapping[str, Any]:
-    return batch.params

@@ -80,7 +80,8 @@ def mjx_stats(model: mjx.Model, params: Mapping[str, Any], *, scenario: Scenario
     dtype = model.opt.timestep.dtype
 
     def out(d, acc, s, i):
-        return (d, stats.update(acc, s, i, cfg, xp=jnp)), None
+        block = {k: v[None] for k, v in s.items()}  # a block of one step: time axis -2
+        return (d, stats.update(acc, block, i[None], cfg, xp=jnp)), None
 
     body = _scan(model, params, scenario, cfg.n_steps, lay, out)
     init = (mjx.make_data(model), stats.init(cfg, (), xp=jnp, dtype=dtype))
@@ -120,6 +121,6 @@ def mujoco_series(m: mujoco.MjModel, params: Mapping[str, Any], *, scenario: Sce
 def series_stats(series: Mapping[str, np.ndarray], cfg: stats.StatsConfig) -> dict[str, Any]:
     """Statistics of a recorded series, by the same reduction the sweeps use."""
     acc = stats.init(cfg, ())
-    for i in range(cfg.n_steps):
-        acc = stats.update(acc, {k: np.asarray(v[i], np.float64) for k, v in series.items()}, i, cfg)
+    block = {k: np.asarray(v[: cfg.n_steps], np.float64) for k, v in series.items()}
+    acc = stats.update(acc, block, np.arange(cfg.n_steps), cfg)
     return stats.finalize(acc, cfg)

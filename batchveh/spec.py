@@ -11,6 +11,7 @@ sweep:
     slope_deg: {start: 0, stop: 30, num: 31}   # or a list of values
     friction: [0.3, 0.5, 0.7, 0.9]
 output: results/slope
+solver: {type: newton, iterations: 8, ls_iterations: 16}   # optional; MuJoCo's defaults otherwise
 ```
 For `random` and `lhs`, `n` and `seed` are required, and each parameter is
 `{low, high}` with optional `log: true` (log-uniform).
@@ -34,7 +35,8 @@ from batchveh.vehicle import Vehicle, load_vehicle, vehicle_from_mapping
 
 METHODS = ("grid", "random", "lhs", "zip")
 TOP_KEYS = ("name", "scenario", "vehicle", "fixed", "sweep", "output", "window", "lowpass_s", "chunk_size",
-            "backend", "precision", "timeseries")
+            "backend", "precision", "solver")
+SOLVER_KEYS = {"type": ("newton", "cg"), "iterations": int, "ls_iterations": int, "tolerance": float}
 
 
 @dataclass(frozen=True)
@@ -55,6 +57,7 @@ class SweepSpec:
     chunk_size: int | None
     backend: str
     precision: str
+    solver: dict[str, Any]  # MuJoCo solver options: type, iterations, ls_iterations, tolerance
     raw: dict[str, Any]  # the YAML as read, for the Parquet metadata
 
 
@@ -173,12 +176,26 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
     precision = raw.get("precision", "f32")
     if precision not in ("f32", "f64"):
         raise ConfigError(f"{where}: precision: {precision!r} is not allowed; allowed: f32, f64")
+    solver = raw.get("solver") or {}
+    if not isinstance(solver, dict):
+        raise ConfigError(f"{where}: solver: {solver!r} is not a mapping; allowed keys: {', '.join(SOLVER_KEYS)}")
+    for k, v in solver.items():
+        if k not in SOLVER_KEYS:
+            raise ConfigError(f"{where}: solver.{k}: unknown key {k!r}; allowed keys: {', '.join(SOLVER_KEYS)}")
+        kind = SOLVER_KEYS[k]
+        if isinstance(kind, tuple):
+            if v not in kind:
+                raise ConfigError(f"{where}: solver.{k}: {v!r} is not allowed; allowed: {', '.join(kind)}")
+        elif kind is int and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
+            raise ConfigError(f"{where}: solver.{k}: {v!r} is not allowed; allowed: an integer >= 1")
+        elif kind is float:
+            check_number(v, {"gt": 0}, f"{where}: solver.{k}")
     lowpass = check_number(raw.get("lowpass_s", 0.05), {"gt": 0, "unit": "s"}, f"{where}: lowpass_s")
     output = Path(raw.get("output") or Path("results") / name)
     scenario = dataclasses.replace(scenario, **{k: v for k, v in fixed.items() if k in STATIC})
     return SweepSpec(name=name, scenario=scenario, vehicle=vehicle, fixed=fixed, method=method, params=params,
                      n=n, seed=seed, output=output, window=window, lowpass_s=lowpass, chunk_size=chunk,
-                     backend=backend, precision=precision, raw=raw)
+                     backend=backend, precision=precision, solver=solver, raw=raw)
 
 
 def variants(spec: SweepSpec) -> pd.DataFrame:

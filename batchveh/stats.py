@@ -2,8 +2,9 @@
 
 `init`, `update` and `finalize` are written once over an array module `xp` (numpy
 or jax.numpy) and leading batch dimensions `...`: the MJX rollout calls them
-inside `lax.scan` (vmapped, no batch dims), the MuJoCo C backend on (n, ...)
-numpy arrays. Memory does not grow with the number of steps.
+inside `lax.scan` (vmapped, no batch dims, blocks of one step), the MuJoCo C
+backend on (n, ...) numpy arrays, a block of steps at a time. Memory does not
+grow with the number of steps.
 
 Windows and filters (all recorded in the Parquet metadata):
 - the steady window [window_start, window_end] in s (default: second half of the run);
@@ -96,51 +97,63 @@ def _roll_pitch_yaw(q, xp):
     return roll, pitch, yaw
 
 
-def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> dict[str, Any]:
-    """Fold one step's sample `s` (after step i) into carry `c`; returns a new carry.
+def _lowpass(y0, x, a, xp):
+    """First-order filter y_k = y_{k-1} + a (x_k - y_{k-1}) along the time axis -2; returns all y."""
+    if x.shape[-2] == 1:
+        return (y0 + a * (x[..., 0, :] - y0))[..., None, :]
+    from scipy.signal import lfilter  # numpy blocks only
 
-    s: tau (..., 8) N m; omega (..., 4) wheel speed rad/s; ref (..., 8) imposed
-    omega (rad/s) and alpha (rad); alpha (..., 4) steering angle rad; pos (..., 3) m;
-    quat (..., 4); vel (..., 3) chassis linear velocity m/s (world).
+    y, _ = lfilter([a], [1.0, a - 1.0], x, axis=-2, zi=((1.0 - a) * y0)[..., None, :])
+    return y
+
+
+def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> dict[str, Any]:
+    """Fold a block of B steps' samples `s` (after steps i, shape (B,)) into carry `c`.
+
+    Every sample array has a time axis -2 of length B: tau (..., B, 8) N m; omega
+    (..., B, 4) wheel speed rad/s; ref (..., B, 8) imposed omega (rad/s) and alpha
+    (rad); alpha (..., B, 4) steering angle rad; pos (..., B, 3) m; quat (..., B, 4);
+    vel (..., B, 3) chassis linear velocity m/s (world). The MJX scan folds blocks
+    of one step; the MuJoCo C backend folds blocks of a rollout.
     """
     tau = xp.concatenate([s["tau"], s["tau"][..., :4].sum(-1, keepdims=True)], axis=-1)
     absx = xp.abs(tau)
-    inw = (i >= cfg.first) & (i <= cfg.last)
+    inw = (i >= cfg.first) & (i <= cfg.last)  # (B,)
     w = xp.where(inw, 1.0, 0.0)
-    wv = w[..., None] if hasattr(w, "ndim") and w.ndim else w
+    wk = w[:, None]
     out = dict(c)
-    out["n"] = c["n"] + w
-    out["sum"] = c["sum"] + wv * tau
-    out["sumsq"] = c["sumsq"] + wv * tau * tau
-    out["min"] = xp.where(inw, xp.minimum(c["min"], tau), c["min"])
-    out["max"] = xp.where(inw, xp.maximum(c["max"], tau), c["max"])
-    slot = xp.where(inw & ((i - cfg.first) % cfg.stride == 0), (i - cfg.first) // cfg.stride, -1)
-    hit = (xp.arange(cfg.n_buf) == slot)[:, None]
-    out["buf"] = xp.where(hit, absx[..., None, :], c["buf"])
-    out["peak_all"] = xp.maximum(c["peak_all"], absx)
-    a = cfg.dt / (cfg.lowpass_s + cfg.dt)
-    lp = c["lp"] + a * (tau - c["lp"])
-    out["lp"] = lp
-    out["lp_peak"] = xp.where(inw, xp.maximum(c["lp_peak"], xp.abs(lp)), c["lp_peak"])
-    out["lp_peak_all"] = xp.maximum(c["lp_peak_all"], xp.abs(lp))
+    out["n"] = c["n"] + w.sum()
+    out["sum"] = c["sum"] + (wk * tau).sum(-2)
+    out["sumsq"] = c["sumsq"] + (wk * tau * tau).sum(-2)
+    out["min"] = xp.minimum(c["min"], xp.where(inw[:, None], tau, np.inf).min(-2))
+    out["max"] = xp.maximum(c["max"], xp.where(inw[:, None], tau, -np.inf).max(-2))
+    slot = xp.where(inw & ((i - cfg.first) % cfg.stride == 0), (i - cfg.first) // cfg.stride, -1)  # (B,)
+    hit = xp.arange(cfg.n_buf)[:, None] == slot[None, :]  # (K, B)
+    taken = xp.einsum("kb,...bc->...kc", hit.astype(absx.dtype), absx)
+    out["buf"] = xp.where(hit.any(-1)[:, None], taken, c["buf"])
+    out["peak_all"] = xp.maximum(c["peak_all"], absx.max(-2))
+    lp = _lowpass(c["lp"], tau, cfg.dt / (cfg.lowpass_s + cfg.dt), xp)
+    out["lp"] = lp[..., -1, :]
+    out["lp_peak"] = xp.maximum(c["lp_peak"], xp.where(inw[:, None], xp.abs(lp), 0.0).max(-2))
+    out["lp_peak_all"] = xp.maximum(c["lp_peak_all"], xp.abs(lp).max(-2))
     power = s["tau"][..., :4] * s["omega"]
-    out["energy"] = c["energy"] + power * cfg.dt
-    out["power_peak"] = xp.maximum(c["power_peak"], xp.abs(power))
+    out["energy"] = c["energy"] + power.sum(-2) * cfg.dt
+    out["power_peak"] = xp.maximum(c["power_peak"], xp.abs(power).max(-2))
     vel = s["vel"]
-    out["distance"] = c["distance"] + xp.sqrt(vel[..., 0] ** 2 + vel[..., 1] ** 2) * cfg.dt
-    roll, pitch, yaw = _roll_pitch_yaw(s["quat"], xp)
-    out["roll"] = xp.maximum(c["roll"], xp.abs(roll))
-    out["pitch"] = xp.maximum(c["pitch"], xp.abs(pitch))
-    finite = xp.all(xp.isfinite(tau), axis=-1) & xp.all(xp.isfinite(s["pos"]), axis=-1)
+    out["distance"] = c["distance"] + xp.sqrt(vel[..., 0] ** 2 + vel[..., 1] ** 2).sum(-1) * cfg.dt
+    roll, pitch, yaw = _roll_pitch_yaw(s["quat"], xp)  # (..., B)
+    out["roll"] = xp.maximum(c["roll"], xp.abs(roll).max(-1))
+    out["pitch"] = xp.maximum(c["pitch"], xp.abs(pitch).max(-1))
+    finite = xp.all(xp.isfinite(tau), axis=(-2, -1)) & xp.all(xp.isfinite(s["pos"]), axis=(-2, -1))
     out["bad"] = xp.maximum(c["bad"], xp.where(finite, 0.0, 1.0))
     v_fwd = vel[..., 0] * xp.cos(yaw) + vel[..., 1] * xp.sin(yaw)
-    out["v_fwd"] = c["v_fwd"] + w * v_fwd
-    out["v_rim"] = c["v_rim"] + w * s["omega"].mean(-1) * cfg.wheel_radius
-    out["speed_err"] = c["speed_err"] + wv * (s["omega"] - s["ref"][..., :4])
-    out["speed_ref"] = c["speed_ref"] + wv * s["ref"][..., :4]
-    out["steer_err"] = xp.where(inw, xp.maximum(c["steer_err"], xp.abs(s["alpha"] - s["ref"][..., 4:])),
-                                c["steer_err"])
-    out["pose"] = xp.stack([s["pos"][..., 0], s["pos"][..., 1], yaw], axis=-1)
+    out["v_fwd"] = c["v_fwd"] + (w * v_fwd).sum(-1)
+    out["v_rim"] = c["v_rim"] + (w * s["omega"].mean(-1)).sum(-1) * cfg.wheel_radius
+    out["speed_err"] = c["speed_err"] + (wk * (s["omega"] - s["ref"][..., :4])).sum(-2)
+    out["speed_ref"] = c["speed_ref"] + (wk * s["ref"][..., :4]).sum(-2)
+    steer_err = xp.where(inw[:, None], xp.abs(s["alpha"] - s["ref"][..., 4:]), 0.0).max(-2)
+    out["steer_err"] = xp.maximum(c["steer_err"], steer_err)
+    out["pose"] = xp.stack([s["pos"][..., -1, 0], s["pos"][..., -1, 1], yaw[..., -1]], axis=-1)
     return out
 
 

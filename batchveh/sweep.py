@@ -25,7 +25,7 @@ import pandas as pd
 from batchveh import io, stats
 from batchveh.config import ConfigError
 from batchveh.spec import SweepSpec, load_spec, variants
-from batchveh.variants import make_batch, parameter_specs
+from batchveh.variants import apply_solver, make_batch, parameter_specs
 
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_INTERRUPTED = 0, 2, 3, 130
 
@@ -51,6 +51,20 @@ def _device(backend: str) -> str:
     return f"{os.cpu_count()} CPU threads ({platform.processor() or platform.machine()})"
 
 
+def enable_compile_cache() -> None:
+    """JAX's persistent compilation cache, so a repeated sweep does not recompile.
+
+    The folder is $BATCHVEH_CACHE or ~/.cache/batchveh/jax.
+    """
+    import os
+
+    import jax
+
+    path = os.environ.get("BATCHVEH_CACHE", os.path.join(os.path.expanduser("~"), ".cache", "batchveh", "jax"))
+    jax.config.update("jax_compilation_cache_dir", path)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+
+
 def run_sweep(spec: SweepSpec, *, out: Path | None = None, backend: str | None = None, resume: bool = False,
               overwrite: bool = False, limit: int | None = None, chunk_size: int | None = None,
               progress: bool = True) -> dict[str, Any]:
@@ -72,7 +86,8 @@ def run_sweep(spec: SweepSpec, *, out: Path | None = None, backend: str | None =
     sc = spec.scenario
     cfg = stats.StatsConfig.make(sc.time_step, sc.n_steps, spec.window, wheel_radius=spec.vehicle.wheel.radius,
                                  lowpass_s=spec.lowpass_s)
-    engine = make_backend(backend, sc, cfg, chunk_size or spec.chunk_size)
+    enable_compile_cache()
+    engine = make_backend(backend, sc, cfg, chunk_size or spec.chunk_size, n_variants=len(table))
     chunk = engine.chunk_size
     manifest = {"spec": spec.raw, "n_variants": len(table), "chunk_size": chunk, "backend": backend,
                 "precision": spec.precision}
@@ -111,6 +126,7 @@ def run_sweep(spec: SweepSpec, *, out: Path | None = None, backend: str | None =
         cols_in = {k: rows[k].to_numpy() for k in rows.columns if k != "variant"}
         cols_in.update({k: v[: len(rows)] for k, v in fixed.items()})
         batch = make_batch(spec.vehicle, sc, cols_in)
+        apply_solver(batch.model, spec.solver)
         res = engine.run(batch)
         wall = time.perf_counter() - t0
         cols = {k: np.asarray(v) for k, v in res.items() if k != "status_code"}

@@ -80,6 +80,15 @@ def _gains(m, lay, p: Mapping[str, Any], towing) -> tuple[np.ndarray, np.ndarray
     return gain, bias
 
 
+def apply_solver(m: mujoco.MjModel, solver: Mapping[str, Any]) -> None:
+    """Set MuJoCo solver options (type newton|cg, iterations, ls_iterations, tolerance) on `m`."""
+    if "type" in solver:
+        m.opt.solver = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG}[solver["type"]]
+    for key in ("iterations", "ls_iterations", "tolerance"):
+        if key in solver:
+            setattr(m.opt, key, solver[key])
+
+
 @dataclass
 class VariantBatch:
     """n variants of one compiled structure."""

@@ -145,6 +145,8 @@ def test_resume_after_kill_equals_uninterrupted(tmp_path):
     ({"sweep": {"method": "random", "params": {"friction": {"low": 0.1, "high": 1}}}}, ["sweep.n"]),
     ({"scenario": "drift"}, ["scenario", "'drift'", "known:"]),
     ({"sweep": {"method": "grid", "params": {"time_step": [0.005, 0.0025]}}}, ["time_step", "cannot vary"]),
+    ({"solver": {"iterations": 0}}, ["solver.iterations", "0", "integer >= 1"]),
+    ({"solver": {"type": "pgs"}}, ["solver.type", "'pgs'", "newton, cg"]),
 ])
 def test_bad_spec_one_line(tmp_path, capsys, edit, expect):
     path = _spec(tmp_path, **edit)
@@ -190,13 +192,40 @@ def test_non_finite_samples_mark_a_variant_diverged():
 
     cfg = stats.StatsConfig.make(0.01, 4)
     acc = stats.init(cfg, (2,))
-    good = {"tau": np.ones((2, 8)), "omega": np.ones((2, 4)), "alpha": np.zeros((2, 4)), "ref": np.ones((2, 8)),
-            "pos": np.zeros((2, 3)), "quat": np.tile([1.0, 0, 0, 0], (2, 1)), "vel": np.zeros((2, 3))}
+    good = {"tau": np.ones((2, 1, 8)), "omega": np.ones((2, 1, 4)), "alpha": np.zeros((2, 1, 4)),
+            "ref": np.ones((2, 1, 8)), "pos": np.zeros((2, 1, 3)), "quat": np.tile([1.0, 0, 0, 0], (2, 1, 1)),
+            "vel": np.zeros((2, 1, 3))}
     for i in range(4):
         s = {k: v.copy() for k, v in good.items()}
         if i == 2:
-            s["tau"][1, 3] = np.nan
-        acc = stats.update(acc, s, i, cfg)
+            s["tau"][1, 0, 3] = np.nan
+        acc = stats.update(acc, s, np.array([i]), cfg)
     out = stats.finalize(acc, cfg)
     assert [stats.STATUS[int(c)] for c in out["status_code"]] == ["ok", "diverged"]
     assert out["drive_lf_mean"][0] == 1.0
+
+
+def test_block_update_equals_step_by_step():
+    """Folding 37 steps at once gives what folding them one by one gives (the two backends' paths)."""
+    from batchveh import stats
+
+    rng = np.random.default_rng(0)
+    n, steps = 3, 37
+    cfg = stats.StatsConfig.make(0.01, steps, p95_samples=8)
+    series = {"tau": rng.normal(size=(n, steps, 8)), "omega": rng.normal(size=(n, steps, 4)),
+              "alpha": rng.normal(size=(n, steps, 4)), "ref": rng.normal(size=(n, steps, 8)),
+              "pos": rng.normal(size=(n, steps, 3)), "vel": rng.normal(size=(n, steps, 3)),
+              "quat": np.tile([1.0, 0, 0, 0], (n, steps, 1))}
+    block = stats.finalize(stats.update(stats.init(cfg, (n,)), series, np.arange(steps), cfg), cfg)
+    acc = stats.init(cfg, (n,))
+    for i in range(steps):
+        acc = stats.update(acc, {k: v[:, i:i + 1] for k, v in series.items()}, np.array([i]), cfg)
+    one = stats.finalize(acc, cfg)
+    for k in block:
+        np.testing.assert_allclose(block[k], one[k], rtol=1e-12, atol=1e-12, err_msg=k)
+    # and the reductions are what they claim: mean over the window (second half), p95 of strided samples
+    w = slice(cfg.first, cfg.last + 1)
+    np.testing.assert_allclose(block["drive_lf_mean"], series["tau"][:, w, 0].mean(1))
+    np.testing.assert_allclose(block["steer_rr_max"], series["tau"][:, w, 7].max(1))
+    strided = np.abs(series["tau"][:, w, 0][:, ::cfg.stride])
+    np.testing.assert_allclose(block["drive_lf_p95"], np.percentile(strided, 95, axis=1))
