@@ -142,6 +142,10 @@ class MujocoBackend:
         self._ctrl = jax.jit(jax.vmap(jax.vmap(ctrl, in_axes=(None, 0)), in_axes=(0, None)))
 
     def run(self, batch: VariantBatch, block: int = 100) -> dict[str, np.ndarray]:
+        """Step the chunk in blocks; while MuJoCo steps block k+1 on all threads, a worker
+        thread folds block k's records into the statistics (both release the GIL)."""
+        from concurrent.futures import ThreadPoolExecutor
+
         from mujoco.batch import Batch, SimulationError
 
         m = batch.model
@@ -150,29 +154,41 @@ class MujocoBackend:
         for name, values in batch.fields.items():
             b.expand(name)[:] = values
         b.reset()
-        acc = stats.init(self.cfg, (batch.n,))
         params = {k: jnp.asarray(v) for k, v in batch.params.items()}
         dt = m.opt.timestep
-        record = ("qpos", "qvel", "qfrc_actuator")
-        bufs = None
-        for start in range(0, self.cfg.n_steps, block):
+        sizes = {"qpos": m.nq, "qvel": m.nv, "qfrc_actuator": m.nv}
+        starts = list(range(0, self.cfg.n_steps, block))
+
+        def controls(start):
             steps = np.arange(start, min(start + block, self.cfg.n_steps))
-            ctrls = np.asarray(self._ctrl(params, jnp.asarray(steps * dt)), np.float64)
-            if bufs is None or bufs["qpos"].shape[1] != len(steps):
-                bufs = {r: np.empty((batch.n, len(steps), getattr(b.model, "nq" if r == "qpos" else "nv")))
-                        for r in record}
-            try:
-                rec = b.rollout(len(steps), control=ctrls, record=record, out=bufs)
-            except SimulationError:
-                rec = bufs  # failed simulations are marked below; their records repeat their last state
-            failed = np.asarray(b.status) != 0
+            return steps, np.asarray(self._ctrl(params, jnp.asarray(steps * dt)), np.float64)
+
+        def fold(acc, rec, steps, ctrls, failed):
             qpos, qvel, qfrc = rec["qpos"], rec["qvel"], rec["qfrc_actuator"]
             sample = {"tau": qfrc[..., lay.motor_dof], "omega": qvel[..., lay.motor_dof[:4]],
                       "alpha": qpos[..., lay.motor_qpos[4:]], "ref": ctrls[..., :8], "pos": qpos[..., 0:3],
                       "quat": qpos[..., 3:7], "vel": qvel[..., 0:3]}
             if failed.any():
                 sample["tau"] = np.where(failed[:, None, None], np.nan, sample["tau"])
-            acc = stats.update(acc, sample, steps, self.cfg)
+            return stats.update(acc, sample, steps, self.cfg)
+
+        acc = stats.init(self.cfg, (batch.n,))
+        bufs = [None, None]
+        with ThreadPoolExecutor(1) as pool:
+            pending = None
+            for k, start in enumerate(starts):
+                steps, ctrls = controls(start)
+                if bufs[k % 2] is None or bufs[k % 2]["qpos"].shape[1] != len(steps):
+                    bufs[k % 2] = {r: np.empty((batch.n, len(steps), n)) for r, n in sizes.items()}
+                try:
+                    rec = b.rollout(len(steps), control=ctrls, record=tuple(sizes), out=bufs[k % 2])
+                except SimulationError:
+                    rec = bufs[k % 2]  # failed simulations are marked below; their records repeat
+                failed = np.asarray(b.status) != 0
+                if pending is not None:
+                    acc = pending.result()
+                pending = pool.submit(fold, acc, rec, steps, ctrls, failed)
+            acc = pending.result()
         return stats.finalize(acc, self.cfg)
 
 
