@@ -63,8 +63,11 @@ class MjxBackend:
 
     name = "mjx"
 
-    def __init__(self, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int):
+    def __init__(self, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int,
+                 matmul_precision: str = "highest"):
         self.scenario, self.cfg = scenario, cfg
+        # 'highest': true float32 products; JAX's GPU default may use reduced-precision (TF32) units
+        self.matmul_precision = matmul_precision
         self.devices = jax.devices()
         self.on_cpu = self.devices[0].platform == "cpu"
         nd = len(self.devices)
@@ -102,7 +105,8 @@ class MjxBackend:
         import time
 
         t0 = time.perf_counter()
-        compiled = fn.lower(mx, params).compile()
+        with jax.default_matmul_precision(self.matmul_precision):
+            compiled = fn.lower(mx, params).compile()
         self.compile_s += time.perf_counter() - t0
         self._fn[key] = compiled
         return compiled
@@ -118,10 +122,11 @@ class MjxBackend:
         if len(self.devices) > 1:
             from jax.sharding import Mesh, NamedSharding, PartitionSpec
 
+            # variants split over the devices; everything else replicated on each
             mesh = Mesh(np.array(self.devices), ("v",))
-            shard = NamedSharding(mesh, PartitionSpec("v"))
-            params = jax.device_put(params, shard)
-            mx = jax.tree_util.tree_map(lambda x, a: jax.device_put(x, shard) if a == 0 else x, mx, axes,
+            split, whole = NamedSharding(mesh, PartitionSpec("v")), NamedSharding(mesh, PartitionSpec())
+            params = jax.device_put(params, split)
+            mx = jax.tree_util.tree_map(lambda x, a: jax.device_put(x, split if a == 0 else whole), mx, axes,
                                         is_leaf=lambda x: x is None)
         fn = self._compiled(batch, mx, axes, params)
         out = jax.device_get(fn(mx, params))
@@ -215,10 +220,10 @@ def auto_chunk(name: str, n_variants: int | None) -> int:
 
 
 def make_backend(name: str, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int | None,
-                 n_variants: int | None = None):
+                 n_variants: int | None = None, matmul_precision: str = "highest"):
     """Build the named backend ('mjx' or 'mujoco'); chunk size automatic unless given."""
     chunk = chunk_size or auto_chunk(name, n_variants)
     if name == "mjx":
-        return MjxBackend(scenario, cfg, chunk)
+        return MjxBackend(scenario, cfg, chunk, matmul_precision)
     return MujocoBackend(scenario, cfg, chunk)
 

@@ -101,7 +101,7 @@ def bench_raw_batch(spec, table, n_steps):
     return batch.n * n_steps / (time.perf_counter() - t0), b.nthread
 
 
-def run_backend(kind, spec, table, chunk, solver="default", x64=False):
+def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="highest"):
     """(columns, wall s, compile s, peak device bytes) of batchveh's backend on the table."""
     import jax
 
@@ -110,7 +110,7 @@ def run_backend(kind, spec, table, chunk, solver="default", x64=False):
 
     sc = spec.scenario
     cfg = stats.StatsConfig.make(sc.time_step, sc.n_steps, spec.window, wheel_radius=spec.vehicle.wheel.radius)
-    be = engine.make_backend(kind, sc, cfg, chunk)
+    be = engine.make_backend(kind, sc, cfg, chunk, matmul_precision=matmul)
     out, t_run = [], 0.0
     for start in range(0, len(table), be.chunk_size):
         batch = make_batch(spec.vehicle, sc, _cols(table.iloc[start:start + be.chunk_size], spec))
@@ -161,6 +161,8 @@ def main():
     ap.add_argument("--solvers", nargs="*", default=["default"], choices=list(SOLVERS))
     ap.add_argument("--precisions", nargs="*", default=["f32"], choices=["f32", "f64"], help="mjx float precisions")
     ap.add_argument("--skip-cpu", action="store_true")
+    ap.add_argument("--matmul", nargs="*", default=["highest"], choices=["default", "high", "highest"],
+                    help="JAX matmul precisions to compare for mjx (GPU float32 'default' may use TF32)")
     args = ap.parse_args()
     import jax
     import mujoco
@@ -195,24 +197,23 @@ def main():
         rows[-1]["accuracy"] = accuracy(cols_ref, ref)
         print(rows[-3:], flush=True)
 
-    for x64 in [p == "f64" for p in args.precisions]:
+    for x64, solver, mm in [(p == "f64", s, mm) for p in args.precisions for s in args.solvers for mm in args.matmul]:
         jax.config.update("jax_enable_x64", x64)
-        for solver in args.solvers:
-            cols_acc, *_ = run_backend("mjx", spec, ref_table, args.ref_variants, solver)
-            acc = accuracy(cols_acc, ref)
-            for size in args.mjx_sizes:
-                _, table = slope_table(size, seed=3)
-                try:
-                    _, wall, comp, peak = run_backend("mjx", spec, table, size, solver)
-                except Exception as err:  # out of memory: record and go on
-                    rows.append({"name": f"batchveh mjx {solver} {'f64' if x64 else 'f32'} n={size}",
-                                 "error": str(err)[:200]})
-                    continue
-                row = {"name": f"batchveh mjx {solver} {'f64' if x64 else 'f32'} n={size}",
-                       "rate": size * n_steps / wall, "compile_s": comp, "peak_mem_gb": peak / 1e9,
-                       "accuracy": acc}
-                rows.append(row)
-                print(row, flush=True)
+        cols_acc, *_ = run_backend("mjx", spec, ref_table, args.ref_variants, solver, matmul=mm)
+        acc = accuracy(cols_acc, ref)
+        for size in args.mjx_sizes:
+            _, table = slope_table(size, seed=3)
+            try:
+                _, wall, comp, peak = run_backend("mjx", spec, table, size, solver, matmul=mm)
+            except Exception as err:  # out of memory: record and go on
+                rows.append({"name": f"batchveh mjx {solver} {'f64' if x64 else 'f32'}{'' if mm == 'highest' else ' mm=' + mm} n={size}",
+                             "error": str(err)[:200]})
+                continue
+            row = {"name": f"batchveh mjx {solver} {'f64' if x64 else 'f32'}{'' if mm == 'highest' else ' mm=' + mm} n={size}",
+                   "rate": size * n_steps / wall, "compile_s": comp, "peak_mem_gb": peak / 1e9,
+                   "accuracy": acc}
+            rows.append(row)
+            print(row, flush=True)
     for r in rows:
         if "rate" in r:
             r["sim_s_per_s"] = r["rate"] / n_steps * sim_s

@@ -1,0 +1,40 @@
+"""Sharding variants over several devices gives what one device gives (two forced CPU devices)."""
+
+import json
+import os
+import subprocess
+import sys
+
+_SCRIPT = """
+import json, sys
+import numpy as np
+import jax
+from batchveh import engine, stats
+from batchveh.scenarios import make_scenario
+from batchveh.variants import make_batch
+from batchveh.vehicle import Vehicle
+sc = make_scenario("straight_line", total_time=0.5, ramp_time=0.25, friction=0.9)
+cfg = stats.StatsConfig.make(sc.time_step, sc.n_steps)
+batch = make_batch(Vehicle(), sc, {"slope_deg": np.linspace(0, 15, 6)})
+be = engine.MjxBackend(sc, cfg, 6)
+out = be.run(batch)
+print(json.dumps({"devices": len(jax.devices()), "chunk": be.chunk_size,
+                  "sum": [float(x) for x in out["drive_sum_mean"]]}))
+"""
+
+
+def _run(n_devices):
+    env = {**os.environ, "XLA_FLAGS": f"--xla_force_host_platform_device_count={n_devices}",
+           "JAX_PLATFORMS": "cpu"}
+    out = subprocess.run([sys.executable, "-c", _SCRIPT], capture_output=True, text=True, env=env, timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_two_devices_match_one():
+    one, two = _run(1), _run(2)
+    assert one["devices"] == 1 and two["devices"] == 2
+    assert two["chunk"] % 2 == 0
+    assert len(two["sum"]) == len(one["sum"]) == 6
+    for a, b in zip(one["sum"], two["sum"]):
+        assert abs(a - b) <= 1e-4 * max(1.0, abs(a)), (one, two)
