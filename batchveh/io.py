@@ -41,6 +41,8 @@ _OTHER_DOC = {
     "mean_speed": ("m/s", "mean forward chassis speed over the steady window"),
     "slip_ratio": ("1", "1 - forward speed / mean rim speed over the steady window"),
     "slipping": ("", "|slip_ratio| > 0.1: the imposed speed is not held by the ground"),
+    "window_accel": ("m/s^2", "least-squares forward acceleration of the chassis over the steady window"),
+    "steady": ("", "|window_accel| < 0.05 m/s^2: the window is steady (torques exclude acceleration)"),
     "speed_track_err": ("1", "steady mean wheel-speed error relative to the imposed speed (max over wheels)"),
     "steer_track_err_deg": ("deg", "max steering-angle error over the steady window"),
     "max_roll_deg": ("deg", "max |roll| over the run"),

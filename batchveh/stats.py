@@ -31,6 +31,7 @@ N_CH = len(CHANNELS)
 STATUS = {0: "ok", 1: "diverged", 2: "flipped"}
 FLIP_DEG = 60.0  # roll or pitch beyond which the vehicle counts as flipped
 SLIP_LIMIT = 0.1  # |slip ratio| above which a variant is flagged as slipping
+STEADY_ACCEL = 0.05  # m/s^2: |window_accel| below which the window counts as steady
 
 
 @dataclass(frozen=True)
@@ -85,6 +86,7 @@ def init(cfg: StatsConfig, batch: tuple[int, ...], xp=np, dtype=None) -> dict[st
         "buf": z(cfg.n_buf, N_CH), "peak_all": z(N_CH), "lp": z(N_CH), "lp_peak": z(N_CH), "lp_peak_all": z(N_CH),
         "energy": z(4), "power_peak": z(4), "distance": z(), "roll": z(), "pitch": z(), "bad": z(),
         "v_fwd": z(), "v_rim": z(), "speed_err": z(4), "speed_ref": z(4), "steer_err": z(4),
+        "tv": z(), "t": z(), "tt": z(),
         "pose": z(3),
     }
 
@@ -148,6 +150,11 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
     out["bad"] = xp.maximum(c["bad"], xp.where(finite, 0.0, 1.0))
     v_fwd = vel[..., 0] * xp.cos(yaw) + vel[..., 1] * xp.sin(yaw)
     out["v_fwd"] = c["v_fwd"] + (w * v_fwd).sum(-1)
+    # least-squares trend of the forward speed over the window (t relative to its start)
+    tw = w * (i - cfg.first) * cfg.dt
+    out["tv"] = c["tv"] + (tw * v_fwd).sum(-1)
+    out["t"] = c["t"] + tw.sum()
+    out["tt"] = c["tt"] + (tw * tw).sum()
     out["v_rim"] = c["v_rim"] + (w * s["omega"].mean(-1)).sum(-1) * cfg.wheel_radius
     out["speed_err"] = c["speed_err"] + (wk * (s["omega"] - s["ref"][..., :4])).sum(-2)
     out["speed_ref"] = c["speed_ref"] + (wk * s["ref"][..., :4]).sum(-2)
@@ -185,6 +192,10 @@ def finalize(c: dict[str, Any], cfg: StatsConfig, xp=np) -> dict[str, Any]:
     cols["mean_speed"] = v_fwd
     cols["slip_ratio"] = xp.where(moving, 1.0 - v_fwd / xp.where(moving, v_rim, 1.0), 0.0)
     cols["slipping"] = xp.abs(cols["slip_ratio"]) > SLIP_LIMIT
+    denom = c["n"] * c["tt"] - c["t"] ** 2
+    cols["window_accel"] = xp.where(denom > 0, (c["n"] * c["tv"] - c["t"] * c["v_fwd"]) / xp.where(denom > 0, denom, 1.0),
+                                    0.0)
+    cols["steady"] = xp.abs(cols["window_accel"]) < STEADY_ACCEL
     ref = xp.abs(c["speed_ref"] / n)
     err = xp.abs(c["speed_err"] / n)
     cols["speed_track_err"] = xp.max(xp.where(ref > 1e-6, err / xp.where(ref > 1e-6, ref, 1.0), err), axis=-1)

@@ -127,3 +127,13 @@ def test_heavier_payload_needs_proportionally_more_torque(vehicle):
 def test_gravity_presets_scale_the_torque(vehicle):
     moon = simulate(vehicle, straight(10, gravity=1.62)).stats
     np.testing.assert_allclose(moon["drive_sum_mean"], slope_torque(vehicle, 10, g=1.62), rtol=SUM_RTOL)
+
+
+def test_window_acceleration_reads_the_ramp(vehicle):
+    """Over the ramp the chassis accelerates at speed / ramp_time; after it, the window is steady."""
+    sc = straight(0, speed_kmh=3.6)  # 1 m/s at the rim, reached over 1 s
+    ramp = simulate(vehicle, sc, window=(0.3, 0.8)).stats
+    np.testing.assert_allclose(ramp["window_accel"], 1.0, rtol=0.05)
+    assert not ramp["steady"]
+    after = simulate(vehicle, sc).stats
+    assert after["steady"] and abs(after["window_accel"]) < 0.01
