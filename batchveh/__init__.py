@@ -8,16 +8,38 @@ and `python -m batchveh.sweep` start cleanly.
 
 __version__ = "0.1.0"
 
+import os as _os
+
+# MuJoCo picks its OpenGL platform when first imported: headless machines need EGL
+if "MUJOCO_GL" not in _os.environ and not _os.environ.get("DISPLAY"):
+    _os.environ["MUJOCO_GL"] = "egl"
+
 from batchveh.config import ConfigError
 from batchveh.io import load, metadata, units
 from batchveh.scenarios import SCENARIOS, Scenario, load_scenario, make_scenario
-from batchveh.spec import load_spec, variants
+from batchveh.spec import load_spec, spec_from_mapping, variants
 from batchveh.vehicle import MOTORS, Vehicle, load_vehicle
 
 _LAZY = {"simulate": "batchveh.run", "run_sweep": "batchveh.sweep"}
 
-__all__ = ["ConfigError", "MOTORS", "SCENARIOS", "Scenario", "Vehicle", "load", "load_scenario", "load_spec",
-           "load_vehicle", "make_scenario", "metadata", "run_sweep", "simulate", "units", "variants"]
+__all__ = [
+    "ConfigError",
+    "MOTORS",
+    "SCENARIOS",
+    "Scenario",
+    "Vehicle",
+    "load",
+    "load_scenario",
+    "load_spec",
+    "load_vehicle",
+    "make_scenario",
+    "metadata",
+    "run_sweep",
+    "simulate",
+    "spec_from_mapping",
+    "units",
+    "variants",
+]
 
 
 def __getattr__(name):

@@ -39,8 +39,9 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
     return data
 
 
-def spec(*, unit: str = "", ge: float | None = None, gt: float | None = None, le: float | None = None,
-         doc: str = "") -> dict[str, Any]:
+def spec(
+    *, unit: str = "", ge: float | None = None, gt: float | None = None, le: float | None = None, doc: str = ""
+) -> dict[str, Any]:
     """Field metadata: unit and bounds checked by `from_mapping`."""
     return {"unit": unit, "ge": ge, "gt": gt, "le": le, "doc": doc}
 
@@ -67,10 +68,12 @@ def check_number(value: Any, meta: dict[str, Any], where: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ConfigError(f"{where}: {value!r} is not a number; allowed: {_allowed(meta)}")
     value = float(value)
-    bad = (not math.isfinite(value)
-           or (meta.get("gt") is not None and not value > meta["gt"])
-           or (meta.get("ge") is not None and not value >= meta["ge"])
-           or (meta.get("le") is not None and not value <= meta["le"]))
+    bad = (
+        not math.isfinite(value)
+        or (meta.get("gt") is not None and not value > meta["gt"])
+        or (meta.get("ge") is not None and not value >= meta["ge"])
+        or (meta.get("le") is not None and not value <= meta["le"])
+    )
     if bad:
         raise ConfigError(f"{where}: {value!r} is out of range; allowed: {_allowed(meta)}")
     return value
@@ -80,8 +83,10 @@ def _convert(value: Any, tp: Any, meta: dict[str, Any], where: str) -> Any:
     origin = typing.get_origin(tp)
     if dataclasses.is_dataclass(tp):
         if not isinstance(value, dict):
-            raise ConfigError(f"{where}: {value!r} is not a mapping; allowed keys: "
-                              f"{', '.join(f.name for f in dataclasses.fields(tp))}")
+            raise ConfigError(
+                f"{where}: {value!r} is not a mapping; allowed keys: "
+                f"{', '.join(f.name for f in dataclasses.fields(tp))}"
+            )
         return from_mapping(tp, value, where)
     if tp is float:
         return check_number(value, meta, where)
@@ -116,7 +121,7 @@ def _convert(value: Any, tp: Any, meta: dict[str, Any], where: str) -> Any:
             return tuple(_convert(v, args[0], meta, f"{where}[{i}]") for i, v in enumerate(value))
         if len(value) != len(args):
             raise ConfigError(f"{where}: {value!r} must have {len(args)} entries")
-        return tuple(_convert(v, a, meta, f"{where}[{i}]") for i, (v, a) in enumerate(zip(value, args)))
+        return tuple(_convert(v, a, meta, f"{where}[{i}]") for i, (v, a) in enumerate(zip(value, args, strict=True)))
     if origin is dict or tp is dict:
         if not isinstance(value, dict):
             raise ConfigError(f"{where}: {value!r} is not a mapping")
@@ -135,8 +140,7 @@ def from_mapping(cls: type, data: dict[str, Any], where: str) -> Any:
     sep = ": " if ":" not in where else "."
     unknown = [k for k in data if k not in fields]
     if unknown:
-        raise ConfigError(f"{where}{sep}{unknown[0]}: unknown key {unknown[0]!r}; allowed keys: "
-                          f"{', '.join(fields)}")
+        raise ConfigError(f"{where}{sep}{unknown[0]}: unknown key {unknown[0]!r}; allowed keys: {', '.join(fields)}")
     kwargs = {}
     for name, value in data.items():
         kwargs[name] = _convert(value, hints[name], dict(fields[name].metadata), f"{where}{sep}{name}")

@@ -19,7 +19,6 @@ from typing import Any
 
 import jax
 import jax.numpy as jnp
-import mujoco
 import numpy as np
 
 from batchveh import stats
@@ -54,8 +53,9 @@ def _pad(batch: VariantBatch, size: int) -> VariantBatch:
     def pad(a):
         return np.concatenate([a, np.repeat(a[-1:], extra, axis=0)], axis=0)
 
-    return VariantBatch(batch.model, {k: pad(v) for k, v in batch.fields.items()},
-                        {k: pad(v) for k, v in batch.params.items()}, size)
+    return VariantBatch(
+        batch.model, {k: pad(v) for k, v in batch.fields.items()}, {k: pad(v) for k, v in batch.params.items()}, size
+    )
 
 
 class MjxBackend:
@@ -63,8 +63,7 @@ class MjxBackend:
 
     name = "mjx"
 
-    def __init__(self, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int,
-                 matmul_precision: str = "highest"):
+    def __init__(self, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int, matmul_precision: str = "highest"):
         self.scenario, self.cfg = scenario, cfg
         # 'highest': true float32 products; JAX's GPU default may use reduced-precision (TF32) units
         self.matmul_precision = matmul_precision
@@ -126,8 +125,9 @@ class MjxBackend:
             mesh = Mesh(np.array(self.devices), ("v",))
             split, whole = NamedSharding(mesh, PartitionSpec("v")), NamedSharding(mesh, PartitionSpec())
             params = jax.device_put(params, split)
-            mx = jax.tree_util.tree_map(lambda x, a: jax.device_put(x, split if a == 0 else whole), mx, axes,
-                                        is_leaf=lambda x: x is None)
+            mx = jax.tree_util.tree_map(
+                lambda x, a: jax.device_put(x, split if a == 0 else whole), mx, axes, is_leaf=lambda x: x is None
+            )
         fn = self._compiled(batch, mx, axes, params)
         out = jax.device_get(fn(mx, params))
         return {k: np.asarray(v)[:n] for k, v in out.items()}
@@ -170,9 +170,15 @@ class MujocoBackend:
 
         def fold(acc, rec, steps, ctrls, failed):
             qpos, qvel, qfrc = rec["qpos"], rec["qvel"], rec["qfrc_actuator"]
-            sample = {"tau": qfrc[..., lay.motor_dof], "omega": qvel[..., lay.motor_dof[:4]],
-                      "alpha": qpos[..., lay.motor_qpos[4:]], "ref": ctrls[..., :8], "pos": qpos[..., 0:3],
-                      "quat": qpos[..., 3:7], "vel": qvel[..., 0:3]}
+            sample = {
+                "tau": qfrc[..., lay.motor_dof],
+                "omega": qvel[..., lay.motor_dof[:4]],
+                "alpha": qpos[..., lay.motor_qpos[4:]],
+                "ref": ctrls[..., :8],
+                "pos": qpos[..., 0:3],
+                "quat": qpos[..., 3:7],
+                "vel": qvel[..., 0:3],
+            }
             if failed.any():
                 sample["tau"] = np.where(failed[:, None, None], np.nan, sample["tau"])
             return stats.update(acc, sample, steps, self.cfg)
@@ -219,11 +225,16 @@ def auto_chunk(name: str, n_variants: int | None) -> int:
     return -(-per // 256) * 256
 
 
-def make_backend(name: str, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int | None,
-                 n_variants: int | None = None, matmul_precision: str = "highest"):
+def make_backend(
+    name: str,
+    scenario: Scenario,
+    cfg: stats.StatsConfig,
+    chunk_size: int | None,
+    n_variants: int | None = None,
+    matmul_precision: str = "highest",
+):
     """Build the named backend ('mjx' or 'mujoco'); chunk size automatic unless given."""
     chunk = chunk_size or auto_chunk(name, n_variants)
     if name == "mjx":
         return MjxBackend(scenario, cfg, chunk, matmul_precision)
     return MujocoBackend(scenario, cfg, chunk)
-

@@ -39,6 +39,7 @@ _OTHER_DOC = {
     "status": ("", "ok, diverged (NaN or inf) or flipped (roll or pitch > 60 deg)"),
     "distance": ("m", "path length of the chassis centre in the ground plane"),
     "mean_speed": ("m/s", "mean forward chassis speed over the steady window"),
+    "wheel_speed": ("rad/s", "mean wheel angular speed (four wheels) over the steady window"),
     "slip_ratio": ("1", "1 - forward speed / mean rim speed over the steady window"),
     "slipping": ("", "|slip_ratio| > 0.1: the imposed speed is not held by the ground"),
     "window_accel": ("m/s^2", "least-squares forward acceleration of the chassis over the steady window"),
@@ -47,7 +48,8 @@ _OTHER_DOC = {
     "steer_track_err_deg": ("deg", "max steering-angle error over the steady window"),
     "max_roll_deg": ("deg", "max |roll| over the run"),
     "max_pitch_deg": ("deg", "max |pitch| over the run"),
-    "final_x": ("m", "final chassis x"), "final_y": ("m", "final chassis y"),
+    "final_x": ("m", "final chassis x"),
+    "final_y": ("m", "final chassis y"),
     "final_yaw_deg": ("deg", "final chassis yaw"),
 }
 
@@ -60,7 +62,7 @@ def column_doc(name: str, param_units: dict[str, str]) -> tuple[str, str]:
         return param_units[name], "swept parameter"
     for ch in CHANNELS:
         if name.startswith(ch + "_"):
-            unit, doc = _STAT_DOC[name[len(ch) + 1:]]
+            unit, doc = _STAT_DOC[name[len(ch) + 1 :]]
             return unit, f"{ch}: {doc}"
     return "", ""
 

@@ -104,8 +104,10 @@ def law_from_mapping(data: Any, where: str) -> Law:
     if isinstance(data, (int, float)) and not isinstance(data, bool):
         return make_law("constant", value=check_number(data, {}, where))
     if not isinstance(data, dict) or "law" not in data:
-        raise ConfigError(f"{where}: {data!r} is not a motion law; give a number or a mapping with "
-                          f"'law' (one of {', '.join(LAWS)}) and its parameters")
+        raise ConfigError(
+            f"{where}: {data!r} is not a motion law; give a number or a mapping with "
+            f"'law' (one of {', '.join(LAWS)}) and its parameters"
+        )
     kind = data["law"]
     if kind not in LAWS:
         raise ConfigError(f"{where}.law: {kind!r} is not a motion law; allowed: {', '.join(LAWS)}")
@@ -113,8 +115,7 @@ def law_from_mapping(data: Any, where: str) -> Law:
     params = {k: v for k, v in data.items() if k != "law"}
     for k in params:
         if k not in req and k not in opt:
-            raise ConfigError(f"{where}: unknown key {k!r} for law {kind!r}; allowed keys: "
-                              f"{', '.join((*req, *opt))}")
+            raise ConfigError(f"{where}: unknown key {k!r} for law {kind!r}; allowed keys: {', '.join((*req, *opt))}")
     for k in req:
         if k not in params:
             raise ConfigError(f"{where}: law {kind!r} needs {k!r}; required: {', '.join(req)}")
@@ -129,6 +130,6 @@ def law_from_mapping(data: Any, where: str) -> Law:
     if kind == "table":
         if len(out["times"]) != len(out["values"]):
             raise ConfigError(f"{where}: times and values must have the same length")
-        if any(b <= a for a, b in zip(out["times"], out["times"][1:])):
+        if any(b <= a for a, b in zip(out["times"][:-1], out["times"][1:], strict=True)):
             raise ConfigError(f"{where}.times: {list(out['times'])!r} must increase strictly")
     return make_law(kind, **out)

@@ -1,4 +1,6 @@
-"""Figures: the seed's four torque figures, with a time axis and units.
+"""Figures: the seed's four torque figures, and sweep envelopes, every axis with its unit.
+
+Matplotlib picks its backend: inline in Jupyter, Agg on a machine without a display.
 
 Smoothing is the seed's: every 10th sample, then a Gaussian filter with sigma = 5
 (decimated) samples (scipy.ndimage.gaussian_filter1d).
@@ -8,15 +10,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+from scipy.ndimage import gaussian_filter1d
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-from scipy.ndimage import gaussian_filter1d  # noqa: E402
-
-from batchveh.vehicle import CORNERS  # noqa: E402
+from batchveh.vehicle import CORNERS
 
 CORNER_TITLES = {"lf": "Left-Front", "rf": "Right-Front", "lr": "Left-Rear", "rr": "Right-Rear"}
 SEED_DECIMATE, SEED_SIGMA = 10, 5.0
@@ -31,7 +30,7 @@ def smooth(time_s: np.ndarray, values: np.ndarray) -> tuple[np.ndarray, np.ndarr
 def torque_figure(series: pd.DataFrame, kind: str, smoothed: bool, title: str) -> plt.Figure:
     """2x2 figure of the drive or steering torques per corner (N m over s)."""
     fig, axes = plt.subplots(2, 2, figsize=(10, 7), sharex=True, constrained_layout=True)
-    for ax, corner in zip(axes.ravel(), CORNERS):
+    for ax, corner in zip(axes.ravel(), CORNERS, strict=True):
         t, y = series["time"].to_numpy(), series[f"{kind}_{corner}"].to_numpy()
         if smoothed:
             t, y = smooth(t, y)
@@ -40,8 +39,9 @@ def torque_figure(series: pd.DataFrame, kind: str, smoothed: bool, title: str) -
         ax.set_xlabel("time [s]")
         ax.set_ylabel(f"{'driving' if kind == 'drive' else 'steering'} torque [N m]")
         ax.grid(alpha=0.3)
-    fig.suptitle(f"{title}: {'driving' if kind == 'drive' else 'steering'} motor torques"
-                 f"{' (smoothed)' if smoothed else ''}")
+    fig.suptitle(
+        f"{title}: {'driving' if kind == 'drive' else 'steering'} motor torques{' (smoothed)' if smoothed else ''}"
+    )
     return fig
 
 
@@ -57,4 +57,174 @@ def seed_figures(series: pd.DataFrame, out_dir: str | Path, title: str) -> list[
             fig.savefig(path, dpi=100)
             plt.close(fig)
             paths.append(path)
+    return paths
+
+
+# --- sweep figures -------------------------------------------------------------------
+# Each takes a sweep DataFrame (batchveh.load) and the sweep's name, labels every axis
+# with its unit, and plots exactly the DataFrame's values (tests read them back).
+
+LABELS = {
+    "slope_deg": "slope [deg]",
+    "friction": "friction coefficient [-]",
+    "speed_kmh": "speed [km/h]",
+    "gravity": "gravity [m/s^2]",
+    "yaw_rate_dps": "yaw rate [deg/s]",
+    "payload.mass": "payload [kg]",
+    "steer_deg": "steering angle [deg]",
+    "turn_radius": "turn radius [m]",
+}
+
+
+def label(name: str) -> str:
+    """Axis label with unit for a parameter or result column."""
+    if name in LABELS:
+        return LABELS[name]
+    from batchveh.io import column_doc
+
+    unit = column_doc(name, {})[0]
+    return f"{name} [{unit}]" if unit else name
+
+
+def usable(df: pd.DataFrame) -> pd.DataFrame:
+    """Rows whose statistics describe a held, steady state: status ok, not slipping, steady window."""
+    keep = df["status"] == "ok"
+    if "slipping" in df:
+        keep &= ~df["slipping"].astype(bool)
+    if "steady" in df:
+        keep &= df["steady"].astype(bool)
+    return df[keep]
+
+
+def envelope(
+    df: pd.DataFrame,
+    name: str,
+    *,
+    motor: str = "drive_sum",
+    x: str = "slope_deg",
+    curve: str = "friction",
+    band: str = "speed_kmh",
+    stats: tuple[str, ...] = ("peak_lp", "rms"),
+    rows: str = "usable",
+    max_curves: int = 6,
+) -> plt.Figure:
+    """Torque envelopes: `motor`'s statistics against `x`, one curve per `curve` value.
+
+    The line is the maximum over `band` (e.g. speed), the shaded band spans min to max
+    over it. By default only usable rows (ok, not slipping, steady) are drawn, and at most
+    `max_curves` evenly spaced values of `curve`.
+    """
+    data = usable(df) if rows == "usable" else df
+    values = np.sort(data[curve].unique())
+    if len(values) > max_curves:
+        values = values[np.round(np.linspace(0, len(values) - 1, max_curves)).astype(int)]
+        data = data[data[curve].isin(values)]
+    fig, axes = plt.subplots(1, len(stats), figsize=(6 * len(stats), 4.5), constrained_layout=True, squeeze=False)
+    for ax, stat in zip(axes[0], stats, strict=True):
+        col = f"{motor}_{stat}"
+        for value, grp in data.groupby(curve):
+            g = grp.groupby(x)[col]
+            lo, hi = g.min(), g.max()
+            ax.plot(hi.index, hi.to_numpy(), marker=".", label=f"{curve} = {value:g}")
+            if band in data:
+                ax.fill_between(lo.index, lo.to_numpy(), hi.to_numpy(), alpha=0.2)
+        ax.set_xlabel(label(x))
+        ax.set_ylabel(f"{motor} {stat} torque [N m]")
+        ax.grid(alpha=0.3)
+        ax.set_title(f"{stat}: max over {band} (band: min-max)")
+    axes[0][-1].legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    fig.suptitle(f"sweep '{name}': {motor} torque envelope")
+    return fig
+
+
+def heatmap(
+    df: pd.DataFrame,
+    name: str,
+    *,
+    motor: str = "drive_sum",
+    stat: str = "peak_lp",
+    x: str = "slope_deg",
+    y: str = "friction",
+) -> plt.Figure:
+    """`x` by `y` map of the largest `motor_stat` over the other parameters, non-slipping rows only.
+
+    Cells where every variant slips are blank. The dashed line is the static no-slip
+    frontier tan(slope) = mu; the step line is the observed frontier (lowest friction
+    at which no variant of that slope slips).
+    """
+    col = f"{motor}_{stat}"
+    ok = df[(df["status"] == "ok") & ~df["slipping"].astype(bool)]
+    grid = ok.pivot_table(index=y, columns=x, values=col, aggfunc="max")
+    xs, ys = sorted(df[x].unique()), sorted(df[y].unique())
+    grid = grid.reindex(index=ys, columns=xs)
+    fig, ax = plt.subplots(figsize=(8, 5.5), constrained_layout=True)
+    mesh = ax.pcolormesh(xs, ys, grid.to_numpy(), shading="nearest", cmap="viridis")
+    fig.colorbar(mesh, ax=ax, label=f"{motor} {stat} torque [N m]")
+    if x == "slope_deg" and y == "friction":
+        s = np.linspace(min(xs), max(xs), 200)
+        ax.plot(s, np.tan(np.deg2rad(s)), "k--", lw=1.5, label="static limit tan(slope) = mu")
+        slips = df.groupby([x, y])["slipping"].any().unstack()
+        frontier = [next((f for f in ys if not slips.loc[sx, f:].any()), np.nan) for sx in xs]
+        ax.step(xs, frontier, "r-", where="mid", lw=1.5, label="observed: no variant slips above")
+        ax.set_ylim(min(ys), max(ys))
+        ax.legend(loc="upper left", fontsize="small")
+    ax.set_xlabel(label(x))
+    ax.set_ylabel(label(y))
+    ax.set_title(f"sweep '{name}': max {motor} {stat} over the other parameters (blank: slips)")
+    return fig
+
+
+def steering_envelope(
+    df: pd.DataFrame, name: str, *, x: str = "friction", curve: str = "yaw_rate_dps", stat: str = "peak_lp"
+) -> plt.Figure:
+    """The largest steering-motor statistic (over the four corners) against `x`, a curve per `curve`."""
+    data = df[df["status"] == "ok"].copy()
+    data["steer_worst"] = data[[f"steer_{c}_{stat}" for c in CORNERS]].abs().max(axis=1)
+    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    groups = data.groupby(curve) if curve in data else [("all", data)]
+    for value, grp in groups:
+        g = grp.groupby(x)["steer_worst"].max()
+        ax.plot(g.index, g.to_numpy(), marker="o", label=f"{curve} = {value}")
+    ax.set_xlabel(label(x))
+    ax.set_ylabel(f"steering {stat} torque, worst corner [N m]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="small")
+    ax.set_title(f"sweep '{name}': steering torque envelope")
+    return fig
+
+
+def operating_points(df: pd.DataFrame, name: str, motor) -> plt.Figure:
+    """Each variant's worst drive motor at the motor shaft (RMS and low-pass peak against
+    speed) over `motor`'s continuous torque and torque-speed limit (a batchveh.motors.Motor)."""
+    from batchveh.motors import check
+
+    c = check(df, motor)
+    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    ax.scatter(c.shaft_speed, c.shaft_rms, s=8, label="RMS (steady window)")
+    ax.scatter(c.shaft_speed, c.shaft_peak, s=8, marker="x", label="peak after low-pass (whole run)")
+    w = np.linspace(0, motor.max_speed * 1.05, 300)
+    ax.plot(w, motor.torque_limit(w), "k-", label=f"{motor.name}: peak torque limit")
+    ax.axhline(motor.continuous_torque, color="k", ls="--", label=f"{motor.name}: continuous torque")
+    ax.set_xlabel("motor speed [rad/s]")
+    ax.set_ylabel("motor shaft torque [N m]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="small")
+    ax.set_title(f"sweep '{name}': operating points vs {motor.name} (gear {motor.gear_ratio:g}:1)")
+    return fig
+
+
+def sweep_figures(df: pd.DataFrame, name: str, out_dir: str | Path) -> list[Path]:
+    """The figures that fit a sweep's parameters, as PNG in `out_dir` (the sweep CLI's --plots)."""
+    out_dir = Path(out_dir)
+    figs = {}
+    if {"slope_deg", "friction"} <= set(df.columns):
+        figs["envelope.png"] = envelope(df, name, band="speed_kmh" if "speed_kmh" in df else "variant")
+        figs["heatmap.png"] = heatmap(df, name)
+    if any(c.startswith("steer_") for c in df.columns) and "friction" in df:
+        figs["steering.png"] = steering_envelope(df, name, curve="yaw_rate_dps" if "yaw_rate_dps" in df else "friction")
+    paths = []
+    for fname, fig in figs.items():
+        fig.savefig(out_dir / fname, dpi=100)
+        plt.close(fig)
+        paths.append(out_dir / fname)
     return paths

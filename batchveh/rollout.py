@@ -59,8 +59,7 @@ def put_batch(batch: VariantBatch) -> tuple[mjx.Model, mjx.Model]:
     return m, axes
 
 
-def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, n_steps: int, lay: Layout,
-          body_out):
+def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, n_steps: int, lay: Layout, body_out):
     ctrl_fn = controls_fn(scenario)
     dt = model.opt.timestep
 
@@ -74,8 +73,9 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, n_ste
     return body
 
 
-def mjx_stats(model: mjx.Model, params: Mapping[str, Any], *, scenario: Scenario, cfg: stats.StatsConfig,
-              lay: Layout) -> dict[str, jax.Array]:
+def mjx_stats(
+    model: mjx.Model, params: Mapping[str, Any], *, scenario: Scenario, cfg: stats.StatsConfig, lay: Layout
+) -> dict[str, jax.Array]:
     """Statistics columns of one variant (pure; vmap it over a batched model)."""
     dtype = model.opt.timestep.dtype
 
@@ -89,8 +89,9 @@ def mjx_stats(model: mjx.Model, params: Mapping[str, Any], *, scenario: Scenario
     return stats.finalize(acc, cfg, xp=jnp)
 
 
-def mjx_series(model: mjx.Model, params: Mapping[str, Any], *, scenario: Scenario, n_steps: int,
-               lay: Layout) -> dict[str, jax.Array]:
+def mjx_series(
+    model: mjx.Model, params: Mapping[str, Any], *, scenario: Scenario, n_steps: int, lay: Layout
+) -> dict[str, jax.Array]:
     """Per-step samples of one variant, each (n_steps, ...)."""
 
     def out(d, acc, s, i):
@@ -101,8 +102,9 @@ def mjx_series(model: mjx.Model, params: Mapping[str, Any], *, scenario: Scenari
     return series
 
 
-def mujoco_series(m: mujoco.MjModel, params: Mapping[str, Any], *, scenario: Scenario,
-                  n_steps: int) -> dict[str, np.ndarray]:
+def mujoco_series(
+    m: mujoco.MjModel, params: Mapping[str, Any], *, scenario: Scenario, n_steps: int
+) -> dict[str, np.ndarray]:
     """Per-step samples from MuJoCo C (float64), the reference for MJX."""
     lay = layout(m)
     d = mujoco.MjData(m)

@@ -25,11 +25,25 @@ from batchveh.scenarios import SCENARIOS, Scenario, load_scenario
 from batchveh.variants import make_batch
 from batchveh.vehicle import CORNERS, MOTORS, Vehicle, load_vehicle
 
-UNITS = {"time": "s", **{m: "N m" for m in MOTORS}, **{f"omega_{c}": "rad/s" for c in CORNERS},
-         **{f"alpha_{c}": "rad" for c in CORNERS}, **{f"omega_ref_{c}": "rad/s" for c in CORNERS},
-         **{f"alpha_ref_{c}": "rad" for c in CORNERS}, "x": "m", "y": "m", "z": "m", "roll": "rad",
-         "pitch": "rad", "yaw": "rad", "vx": "m/s", "vy": "m/s", "vz": "m/s", "v_forward": "m/s",
-         "slip": "1"}
+UNITS = {
+    "time": "s",
+    **{m: "N m" for m in MOTORS},
+    **{f"omega_{c}": "rad/s" for c in CORNERS},
+    **{f"alpha_{c}": "rad" for c in CORNERS},
+    **{f"omega_ref_{c}": "rad/s" for c in CORNERS},
+    **{f"alpha_ref_{c}": "rad" for c in CORNERS},
+    "x": "m",
+    "y": "m",
+    "z": "m",
+    "roll": "rad",
+    "pitch": "rad",
+    "yaw": "rad",
+    "vx": "m/s",
+    "vy": "m/s",
+    "vz": "m/s",
+    "v_forward": "m/s",
+    "slip": "1",
+}
 
 
 def series_frame(series: dict[str, np.ndarray], dt: float, wheel_radius: float) -> pd.DataFrame:
@@ -65,8 +79,9 @@ class RunResult:
     vehicle: Vehicle
 
 
-def simulate(vehicle: Vehicle, scenario: Scenario, backend: str = "mujoco",
-             window: tuple[float, float] | None = None) -> RunResult:
+def simulate(
+    vehicle: Vehicle, scenario: Scenario, backend: str = "mujoco", window: tuple[float, float] | None = None
+) -> RunResult:
     """Run one scenario on MuJoCo C ('mujoco') or MJX ('mjx'); record every step."""
     batch = make_batch(vehicle, scenario, {})
     params = {k: float(v[0]) for k, v in batch.params.items()}
@@ -105,8 +120,10 @@ def write(result: RunResult, out: Path, overwrite: bool = False) -> list[Path]:
     import pyarrow.parquet as pq
 
     table = pa.Table.from_pandas(result.series, preserve_index=False)
-    schema = pa.schema([f.with_metadata({"unit": UNITS.get(f.name, "")}) for f in table.schema],
-                       metadata={"scenario": repr(result.scenario), "vehicle": repr(result.vehicle)})
+    schema = pa.schema(
+        [f.with_metadata({"unit": UNITS.get(f.name, "")}) for f in table.schema],
+        metadata={"scenario": repr(result.scenario), "vehicle": repr(result.vehicle)},
+    )
     tmp = target.with_suffix(".tmp")
     pq.write_table(table.cast(schema), tmp)
     tmp.replace(target)
@@ -118,16 +135,19 @@ def write(result: RunResult, out: Path, overwrite: bool = False) -> list[Path]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m batchveh.run", description=__doc__.split("\n\n")[0],
-        epilog=f"Scenarios: {', '.join(SCENARIOS)}. Exit codes: 0 ok, 2 bad input, 3 output exists, 4 diverged.")
+        prog="python -m batchveh.run",
+        description=__doc__.split("\n\n")[0],
+        epilog=f"Scenarios: {', '.join(SCENARIOS)}. Exit codes: 0 ok, 2 bad input, 3 output exists, 4 diverged.",
+    )
     parser.add_argument("scenario", help="a scenario name or a scenario YAML file")
     parser.add_argument("--vehicle", help="vehicle YAML (default: the seed's vehicle)")
     parser.add_argument("--slope-deg", type=float, help="slope in deg (overrides the scenario)")
     parser.add_argument("--friction", type=float, help="friction coefficient")
     parser.add_argument("--speed-kmh", type=float, help="target speed in km/h")
     parser.add_argument("--total-time", type=float, help="simulated time in s")
-    parser.add_argument("--backend", choices=("mujoco", "mjx"), default="mujoco",
-                        help="MuJoCo C (default) or MJX (JAX)")
+    parser.add_argument(
+        "--backend", choices=("mujoco", "mjx"), default="mujoco", help="MuJoCo C (default) or MJX (JAX)"
+    )
     parser.add_argument("--precision", choices=("f32", "f64"), default="f32", help="MJX float precision")
     parser.add_argument("--out", type=Path, default=None, help="output folder (default runs/<scenario>)")
     parser.add_argument("--overwrite", action="store_true", help="replace existing results")
@@ -139,8 +159,11 @@ def main(argv: list[str] | None = None) -> int:
             jax.config.update("jax_enable_x64", True)
         vehicle = load_vehicle(args.vehicle)
         scenario = load_scenario(args.scenario)
-        over = {k: getattr(args, k) for k in ("slope_deg", "friction", "speed_kmh", "total_time")
-                if getattr(args, k) is not None}
+        over = {
+            k: getattr(args, k)
+            for k in ("slope_deg", "friction", "speed_kmh", "total_time")
+            if getattr(args, k) is not None
+        }
         if over:
             scenario = dataclasses.replace(scenario, **over)
             from batchveh.config import check_dataclass
@@ -158,11 +181,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 2
     s = result.stats
-    print(f"{scenario.kind} on {args.backend}: {scenario.n_steps} steps in {time.perf_counter() - t0:.2f} s, "
-          f"status {stats.STATUS[int(s['status_code'])]}, slip ratio {float(s['slip_ratio']):.3f}")
+    print(
+        f"{scenario.kind} on {args.backend}: {scenario.n_steps} steps in {time.perf_counter() - t0:.2f} s, "
+        f"status {stats.STATUS[int(s['status_code'])]}, slip ratio {float(s['slip_ratio']):.3f}"
+    )
     print("steady mean torque [N m]: " + ", ".join(f"{m} {float(s[m + '_mean']):.3f}" for m in MOTORS))
-    print(f"four-wheel drive sum {float(s['drive_sum_mean']):.3f} N m "
-          f"(m g sin(slope) r = {vehicle.total_mass * scenario.gravity * np.sin(np.deg2rad(scenario.slope_deg)) * vehicle.wheel.radius:.3f})")
+    closed_form = vehicle.total_mass * scenario.gravity * np.sin(np.deg2rad(scenario.slope_deg)) * vehicle.wheel.radius
+    print(f"four-wheel drive sum {float(s['drive_sum_mean']):.3f} N m (m g sin(slope) r = {closed_form:.3f})")
     print("wrote: " + ", ".join(str(p) for p in paths))
     return 4 if int(s["status_code"]) == 1 else 0
 

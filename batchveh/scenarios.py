@@ -53,8 +53,9 @@ class Scenario:
         if self.kind not in SCENARIOS:
             raise ConfigError(f"{where}: scenario {self.kind!r} is not known; known: {', '.join(SCENARIOS)}")
         if self.drive_law not in ("ramp", "unbounded_ramp", "smooth_step"):
-            raise ConfigError(f"{where}.drive_law: {self.drive_law!r} is not allowed; allowed: ramp, "
-                              "unbounded_ramp, smooth_step")
+            raise ConfigError(
+                f"{where}.drive_law: {self.drive_law!r} is not allowed; allowed: ramp, unbounded_ramp, smooth_step"
+            )
         if self.kind == "custom":
             custom_laws(self, where)
         if self.time_step > self.total_time:
@@ -241,8 +242,10 @@ def scenario_from_mapping(data: Mapping[str, Any], where: str) -> Scenario:
     if isinstance(data.get("gravity"), str):
         g = data["gravity"].lower()
         if g not in GRAVITY_PRESETS:
-            raise ConfigError(f"{where}: gravity: {data['gravity']!r} is not allowed; allowed: a number "
-                              f"in m/s^2 or one of {', '.join(GRAVITY_PRESETS)}")
+            raise ConfigError(
+                f"{where}: gravity: {data['gravity']!r} is not allowed; allowed: a number "
+                f"in m/s^2 or one of {', '.join(GRAVITY_PRESETS)}"
+            )
         data["gravity"] = GRAVITY_PRESETS[g]
     return from_mapping(Scenario, {"kind": kind, **SCENARIOS[kind][1], **data}, where)
 
@@ -254,5 +257,4 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         return make_scenario(s)
     if s.endswith((".yaml", ".yml")) or Path(s).exists():
         return scenario_from_mapping(load_yaml(s), s)
-    raise ConfigError(f"scenario {s!r} is neither a known scenario nor a YAML file; known: "
-                      f"{', '.join(SCENARIOS)}")
+    raise ConfigError(f"scenario {s!r} is neither a known scenario nor a YAML file; known: {', '.join(SCENARIOS)}")

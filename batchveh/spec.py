@@ -34,8 +34,20 @@ from batchveh.variants import STATIC, parameter_specs
 from batchveh.vehicle import Vehicle, load_vehicle, vehicle_from_mapping
 
 METHODS = ("grid", "random", "lhs", "zip")
-TOP_KEYS = ("name", "scenario", "vehicle", "fixed", "sweep", "output", "window", "lowpass_s", "chunk_size",
-            "backend", "precision", "solver")
+TOP_KEYS = (
+    "name",
+    "scenario",
+    "vehicle",
+    "fixed",
+    "sweep",
+    "output",
+    "window",
+    "lowpass_s",
+    "chunk_size",
+    "backend",
+    "precision",
+    "solver",
+)
 SOLVER_KEYS = {"type": ("newton", "cg"), "iterations": int, "ls_iterations": int, "tolerance": float}
 
 
@@ -157,14 +169,17 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
         if isinstance(seed, bool) or not isinstance(seed, int):
             raise ConfigError(f"{where}: sweep.seed: {seed!r} is not allowed; allowed: an integer")
     if method == "zip" and len({len(v) for v in params.values()}) > 1:
-        raise ConfigError(f"{where}: sweep.params: zip needs lists of one length; got "
-                          f"{ {k: len(v) for k, v in params.items()} }")
+        raise ConfigError(
+            f"{where}: sweep.params: zip needs lists of one length; got { {k: len(v) for k, v in params.items()} }"
+        )
     window = raw.get("window")
     if window is not None:
         if not isinstance(window, list) or len(window) != 2:
             raise ConfigError(f"{where}: window: {window!r} is not allowed; allowed: [start_s, end_s]")
-        window = (check_number(window[0], {"ge": 0}, f"{where}: window"),
-                  check_number(window[1], {"gt": 0}, f"{where}: window"))
+        window = (
+            check_number(window[0], {"ge": 0}, f"{where}: window"),
+            check_number(window[1], {"gt": 0}, f"{where}: window"),
+        )
         if window[1] <= window[0]:
             raise ConfigError(f"{where}: window: {list(window)!r} is not allowed; allowed: start < end")
     chunk = raw.get("chunk_size")
@@ -193,9 +208,24 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
     lowpass = check_number(raw.get("lowpass_s", 0.05), {"gt": 0, "unit": "s"}, f"{where}: lowpass_s")
     output = Path(raw.get("output") or Path("results") / name)
     scenario = dataclasses.replace(scenario, **{k: v for k, v in fixed.items() if k in STATIC})
-    return SweepSpec(name=name, scenario=scenario, vehicle=vehicle, fixed=fixed, method=method, params=params,
-                     n=n, seed=seed, output=output, window=window, lowpass_s=lowpass, chunk_size=chunk,
-                     backend=backend, precision=precision, solver=solver, raw=raw)
+    return SweepSpec(
+        name=name,
+        scenario=scenario,
+        vehicle=vehicle,
+        fixed=fixed,
+        method=method,
+        params=params,
+        n=n,
+        seed=seed,
+        output=output,
+        window=window,
+        lowpass_s=lowpass,
+        chunk_size=chunk,
+        backend=backend,
+        precision=precision,
+        solver=solver,
+        raw=raw,
+    )
 
 
 def variants(spec: SweepSpec) -> pd.DataFrame:
@@ -220,3 +250,25 @@ def variants(spec: SweepSpec) -> pd.DataFrame:
     frame = pd.DataFrame(data, columns=names)
     frame.insert(0, "variant", np.arange(len(frame), dtype=np.int64))
     return frame
+
+
+def variant_setup(spec: SweepSpec, row: Any) -> tuple[Vehicle, Scenario]:
+    """The vehicle and scenario of one variant (a row of the variant or result table)."""
+    from batchveh.scenarios import numeric_fields
+    from batchveh.vehicle import numeric_paths, replace_path
+
+    values = {**spec.fixed, **{k: float(row[k]) for k in spec.params}}
+    scenario_keys = numeric_fields()
+    sc = dataclasses.replace(spec.scenario, **{k: v for k, v in values.items() if k in scenario_keys})
+    vehicle = spec.vehicle
+    for k, v in values.items():
+        if k in numeric_paths(vehicle):
+            vehicle = replace_path(vehicle, k, float(v))
+    return vehicle, sc
+
+
+def spec_of_result(path: str | Path) -> SweepSpec:
+    """The spec a result directory was made from (from its file metadata)."""
+    from batchveh.io import metadata
+
+    return spec_from_mapping(metadata(path)["spec"], f"{path} (metadata)")

@@ -82,11 +82,30 @@ def init(cfg: StatsConfig, batch: tuple[int, ...], xp=np, dtype=None) -> dict[st
         return xp.full((*batch, *shape), fill, dtype=dtype)
 
     return {
-        "n": z(), "sum": z(N_CH), "sumsq": z(N_CH), "min": z(N_CH, fill=np.inf), "max": z(N_CH, fill=-np.inf),
-        "buf": z(cfg.n_buf, N_CH), "peak_all": z(N_CH), "lp": z(N_CH), "lp_peak": z(N_CH), "lp_peak_all": z(N_CH),
-        "energy": z(4), "power_peak": z(4), "distance": z(), "roll": z(), "pitch": z(), "bad": z(),
-        "v_fwd": z(), "v_rim": z(), "speed_err": z(4), "speed_ref": z(4), "steer_err": z(4),
-        "tv": z(), "t": z(), "tt": z(),
+        "n": z(),
+        "sum": z(N_CH),
+        "sumsq": z(N_CH),
+        "min": z(N_CH, fill=np.inf),
+        "max": z(N_CH, fill=-np.inf),
+        "buf": z(cfg.n_buf, N_CH),
+        "peak_all": z(N_CH),
+        "lp": z(N_CH),
+        "lp_peak": z(N_CH),
+        "lp_peak_all": z(N_CH),
+        "energy": z(4),
+        "power_peak": z(4),
+        "distance": z(),
+        "roll": z(),
+        "pitch": z(),
+        "bad": z(),
+        "v_fwd": z(),
+        "v_rim": z(),
+        "speed_err": z(4),
+        "speed_ref": z(4),
+        "steer_err": z(4),
+        "tv": z(),
+        "t": z(),
+        "tt": z(),
         "pose": z(3),
     }
 
@@ -189,12 +208,13 @@ def finalize(c: dict[str, Any], cfg: StatsConfig, xp=np) -> dict[str, Any]:
     v_fwd, v_rim = c["v_fwd"] / nw, c["v_rim"] / nw
     moving = xp.abs(v_rim) > 1e-3
     cols["distance"] = c["distance"]
+    cols["wheel_speed"] = v_rim / cfg.wheel_radius
     cols["mean_speed"] = v_fwd
     cols["slip_ratio"] = xp.where(moving, 1.0 - v_fwd / xp.where(moving, v_rim, 1.0), 0.0)
     cols["slipping"] = xp.abs(cols["slip_ratio"]) > SLIP_LIMIT
     denom = c["n"] * c["tt"] - c["t"] ** 2
-    cols["window_accel"] = xp.where(denom > 0, (c["n"] * c["tv"] - c["t"] * c["v_fwd"]) / xp.where(denom > 0, denom, 1.0),
-                                    0.0)
+    trend = (c["n"] * c["tv"] - c["t"] * c["v_fwd"]) / xp.where(denom > 0, denom, 1.0)
+    cols["window_accel"] = xp.where(denom > 0, trend, 0.0)
     cols["steady"] = xp.abs(cols["window_accel"]) < STEADY_ACCEL
     ref = xp.abs(c["speed_ref"] / n)
     err = xp.abs(c["speed_err"] / n)

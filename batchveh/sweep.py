@@ -36,8 +36,12 @@ def _versions() -> dict[str, str]:
 
     from batchveh import __version__
 
-    return {"batchveh": __version__, "mujoco": mujoco.__version__, "jax": jax.__version__,
-            "python": platform.python_version()}
+    return {
+        "batchveh": __version__,
+        "mujoco": mujoco.__version__,
+        "jax": jax.__version__,
+        "python": platform.python_version(),
+    }
 
 
 def _device(backend: str) -> str:
@@ -65,9 +69,17 @@ def enable_compile_cache() -> None:
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 
-def run_sweep(spec: SweepSpec, *, out: Path | None = None, backend: str | None = None, resume: bool = False,
-              overwrite: bool = False, limit: int | None = None, chunk_size: int | None = None,
-              progress: bool = True) -> dict[str, Any]:
+def run_sweep(
+    spec: SweepSpec,
+    *,
+    out: Path | None = None,
+    backend: str | None = None,
+    resume: bool = False,
+    overwrite: bool = False,
+    limit: int | None = None,
+    chunk_size: int | None = None,
+    progress: bool = True,
+) -> dict[str, Any]:
     """Run `spec`, writing part files under `out`; return a summary dict.
 
     Raises FileExistsError where results exist and neither resume nor overwrite is given.
@@ -84,13 +96,19 @@ def run_sweep(spec: SweepSpec, *, out: Path | None = None, backend: str | None =
 
         jax.config.update("jax_enable_x64", True)
     sc = spec.scenario
-    cfg = stats.StatsConfig.make(sc.time_step, sc.n_steps, spec.window, wheel_radius=spec.vehicle.wheel.radius,
-                                 lowpass_s=spec.lowpass_s)
+    cfg = stats.StatsConfig.make(
+        sc.time_step, sc.n_steps, spec.window, wheel_radius=spec.vehicle.wheel.radius, lowpass_s=spec.lowpass_s
+    )
     enable_compile_cache()
     engine = make_backend(backend, sc, cfg, chunk_size or spec.chunk_size, n_variants=len(table))
     chunk = engine.chunk_size
-    manifest = {"spec": spec.raw, "n_variants": len(table), "chunk_size": chunk, "backend": backend,
-                "precision": spec.precision}
+    manifest = {
+        "spec": spec.raw,
+        "n_variants": len(table),
+        "chunk_size": chunk,
+        "backend": backend,
+        "precision": spec.precision,
+    }
     existing = io.parts(out) if out.exists() else []
     if (existing or (out / io.MANIFEST).exists()) and not resume:
         if not overwrite:
@@ -100,8 +118,10 @@ def run_sweep(spec: SweepSpec, *, out: Path | None = None, backend: str | None =
     if resume and (out / io.MANIFEST).exists():
         old = json.loads((out / io.MANIFEST).read_text())
         if {k: old.get(k) for k in manifest} != json.loads(json.dumps(manifest)):
-            raise ConfigError(f"{out}: the results there come from another spec, chunk size or backend; "
-                              "give --overwrite to replace them")
+            raise ConfigError(
+                f"{out}: the results there come from another spec, chunk size or backend; "
+                "give --overwrite to replace them"
+            )
     out.mkdir(parents=True, exist_ok=True)
     (out / io.MANIFEST).write_text(json.dumps(manifest, indent=1))
     specs = parameter_specs(spec.vehicle)
@@ -110,18 +130,32 @@ def run_sweep(spec: SweepSpec, *, out: Path | None = None, backend: str | None =
     n_chunks = -(-len(table) // chunk)
     done = {int(p.stem.split("-")[1]) for p in existing}
     todo = [c for c in range(n_chunks) if c not in done]
-    base_meta = {"spec": spec.raw, "versions": _versions(), "device": _device(backend), "backend": backend,
-                 "precision": spec.precision, "window_s": [cfg.window_start, cfg.window_end],
-                 "lowpass_s": cfg.lowpass_s, "p95_stride": cfg.stride, "time_step": sc.time_step,
-                 "total_time": sc.total_time}
+    base_meta = {
+        "spec": spec.raw,
+        "versions": _versions(),
+        "device": _device(backend),
+        "backend": backend,
+        "precision": spec.precision,
+        "window_s": [cfg.window_start, cfg.window_end],
+        "lowpass_s": cfg.lowpass_s,
+        "p95_stride": cfg.stride,
+        "time_step": sc.time_step,
+        "total_time": sc.total_time,
+    }
     from tqdm.auto import tqdm
 
-    bar = tqdm(total=len(table), initial=len(table) - sum(min(chunk, len(table) - c * chunk) for c in todo),
-               unit="variant", desc=spec.name, disable=not progress, dynamic_ncols=True)
+    bar = tqdm(
+        total=len(table),
+        initial=len(table) - sum(min(chunk, len(table) - c * chunk) for c in todo),
+        unit="variant",
+        desc=spec.name,
+        disable=not progress,
+        dynamic_ncols=True,
+    )
     t_start = time.perf_counter()
     ran = 0
     for c in todo:
-        rows = table.iloc[c * chunk:(c + 1) * chunk]
+        rows = table.iloc[c * chunk : (c + 1) * chunk]
         t0 = time.perf_counter()
         cols_in = {k: rows[k].to_numpy() for k in rows.columns if k != "variant"}
         cols_in.update({k: v[: len(rows)] for k, v in fixed.items()})
@@ -140,10 +174,20 @@ def run_sweep(spec: SweepSpec, *, out: Path | None = None, backend: str | None =
     wall = time.perf_counter() - t_start
     result = io.load(out)
     counts = result["status"].value_counts().to_dict()
-    return {"rows": len(result), "ran": ran, "ok": counts.get("ok", 0), "diverged": counts.get("diverged", 0),
-            "flipped": counts.get("flipped", 0), "slipping": int(result["slipping"].sum()), "wall_s": wall,
-            "compile_s": engine.compile_s, "variant_steps_per_s": ran * sc.n_steps / wall if wall > 0 else 0.0,
-            "out": out, "backend": backend, "device": base_meta["device"]}
+    return {
+        "rows": len(result),
+        "ran": ran,
+        "ok": counts.get("ok", 0),
+        "diverged": counts.get("diverged", 0),
+        "flipped": counts.get("flipped", 0),
+        "slipping": int(result["slipping"].sum()),
+        "wall_s": wall,
+        "compile_s": engine.compile_s,
+        "variant_steps_per_s": ran * sc.n_steps / wall if wall > 0 else 0.0,
+        "out": out,
+        "backend": backend,
+        "device": base_meta["device"],
+    }
 
 
 def dry_run(spec: SweepSpec, limit: int | None, backend: str) -> str:
@@ -156,24 +200,32 @@ def dry_run(spec: SweepSpec, limit: int | None, backend: str) -> str:
     # variant-steps/s measured here: mujoco.batch on 2 CPU threads ~1e5; MJX on one H100/H200 is higher
     rate = 1.0e5 if backend == "mujoco" else 2.0e6
     mem_mb = n * 4e-3 if backend == "mujoco" else min(n, 8192) * 0.2
-    return (f"{spec.name}: {n} variants x {steps} steps on {backend}; about {n * steps / rate:.0f} s "
-            f"and {mem_mb:.0f} MB; results would go to {spec.output}")
+    return (
+        f"{spec.name}: {n} variants x {steps} steps on {backend}; about {n * steps / rate:.0f} s "
+        f"and {mem_mb:.0f} MB; results would go to {spec.output}"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m batchveh.sweep", description=__doc__.split("\n\n")[0],
-                                     epilog="Exit codes: 0 done, 2 bad spec, 3 results exist, 130 interrupted. "
-                                            "The spec format is in README.md.")
+    parser = argparse.ArgumentParser(
+        prog="python -m batchveh.sweep",
+        description=__doc__.split("\n\n")[0],
+        epilog="Exit codes: 0 done, 2 bad spec, 3 results exist, 130 interrupted. The spec format is in README.md.",
+    )
     parser.add_argument("spec", help="sweep YAML, e.g. sweeps/slope.yaml")
     parser.add_argument("--out", type=Path, help="result directory (default: the spec's output)")
-    parser.add_argument("--backend", choices=("auto", "mjx", "mujoco"),
-                        help="auto: mjx when JAX sees a GPU, else mujoco (MuJoCo C on all CPU threads)")
+    parser.add_argument(
+        "--backend",
+        choices=("auto", "mjx", "mujoco"),
+        help="auto: mjx when JAX sees a GPU, else mujoco (MuJoCo C on all CPU threads)",
+    )
     parser.add_argument("--resume", action="store_true", help="keep finished chunks and run the rest")
     parser.add_argument("--overwrite", action="store_true", help="delete existing results first")
     parser.add_argument("--dry-run", action="store_true", help="print the variant count and estimates, then stop")
     parser.add_argument("--limit", type=int, help="run only the first N variants")
     parser.add_argument("--chunk-size", type=int, help="variants per chunk (default: by backend)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--plots", action="store_true", help="also write envelope/heatmap PNGs into the results")
     args = parser.parse_args(argv)
     try:
         spec = load_spec(args.spec)
@@ -182,8 +234,16 @@ def main(argv: list[str] | None = None) -> int:
         if args.dry_run:
             print(dry_run(spec, args.limit, args.backend or spec.backend))
             return EXIT_OK
-        summary = run_sweep(spec, out=args.out, backend=args.backend, resume=args.resume, overwrite=args.overwrite,
-                            limit=args.limit, chunk_size=args.chunk_size, progress=not args.quiet)
+        summary = run_sweep(
+            spec,
+            out=args.out,
+            backend=args.backend,
+            resume=args.resume,
+            overwrite=args.overwrite,
+            limit=args.limit,
+            chunk_size=args.chunk_size,
+            progress=not args.quiet,
+        )
     except ConfigError as err:
         print(f"error: {err}", file=sys.stderr)
         return EXIT_INPUT
@@ -194,9 +254,16 @@ def main(argv: list[str] | None = None) -> int:
         print("\ninterrupted: finished chunks are kept; run again with --resume", file=sys.stderr)
         return EXIT_INTERRUPTED
     s = summary
-    print(f"{s['rows']} rows ({s['ran']} run now): {s['ok']} ok, {s['diverged']} diverged, {s['flipped']} flipped, "
-          f"{s['slipping']} slipping | {s['wall_s']:.1f} s wall, compile {s['compile_s']:.1f} s, "
-          f"{s['variant_steps_per_s']:.3g} variant-steps/s on {s['backend']} ({s['device']})")
+    if args.plots:
+        from batchveh.plot import sweep_figures
+
+        figs = sweep_figures(io.load(s["out"]), spec.name, s["out"])
+        print("figures: " + ", ".join(str(p) for p in figs))
+    print(
+        f"{s['rows']} rows ({s['ran']} run now): {s['ok']} ok, {s['diverged']} diverged, {s['flipped']} flipped, "
+        f"{s['slipping']} slipping | {s['wall_s']:.1f} s wall, compile {s['compile_s']:.1f} s, "
+        f"{s['variant_steps_per_s']:.3g} variant-steps/s on {s['backend']} ({s['device']})"
+    )
     print(f"results: {s['out']}  (pandas: batchveh.load({str(s['out'])!r}))")
     return EXIT_OK
 

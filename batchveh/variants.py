@@ -55,8 +55,9 @@ def base_params(vehicle: Vehicle, scenario: Scenario) -> dict[str, float]:
 
 def model_for(vehicle: Vehicle, scenario: Scenario) -> mujoco.MjModel:
     """The MjModel of one vehicle and scenario, towing wheels included."""
-    m = build_model(vehicle, time_step=scenario.time_step, friction=scenario.friction,
-                    gravity=tuple(scenario.gravity_vector()))
+    m = build_model(
+        vehicle, time_step=scenario.time_step, friction=scenario.friction, gravity=tuple(scenario.gravity_vector())
+    )
     lay = layout(m)
     gainprm, biasprm = _gains(m, lay, base_params(vehicle, scenario), scenario.towing)
     m.actuator_gainprm[:] = gainprm
@@ -70,10 +71,12 @@ def _gains(m, lay, p: Mapping[str, Any], towing) -> tuple[np.ndarray, np.ndarray
     gain = np.broadcast_to(m.actuator_gainprm, (*n, *m.actuator_gainprm.shape)).copy()
     bias = np.broadcast_to(m.actuator_biasprm, (*n, *m.actuator_biasprm.shape)).copy()
     free = np.array([0.0 if tow else 1.0 for tow in towing])
-    for ids, key, col, scale in ((lay.drive_vel_act, "motors.drive_kv", 2, free),
-                                 (lay.drive_pos_act, "motors.drive_kp", 1, free),
-                                 (lay.steer_pos_act, "motors.steer_kp", 1, 1.0),
-                                 (lay.steer_vel_act, "motors.steer_kv", 2, 1.0)):
+    for ids, key, col, scale in (
+        (lay.drive_vel_act, "motors.drive_kv", 2, free),
+        (lay.drive_pos_act, "motors.drive_kp", 1, free),
+        (lay.steer_pos_act, "motors.steer_kp", 1, 1.0),
+        (lay.steer_vel_act, "motors.steer_kv", 2, 1.0),
+    ):
         k = np.asarray(p[key], float)[..., None] * scale
         gain[..., ids, 0] = k
         bias[..., ids, col] = -k
@@ -141,12 +144,12 @@ def _structural_fields(vehicle, scenario, model, params, names, fields) -> None:
     models = []
     for row in combos:
         v = vehicle
-        for k, val in zip(names, row):
+        for k, val in zip(names, row, strict=True):
             v = replace_path(v, k, float(val))
         try:
             v.validate("vehicle")
         except ConfigError as err:
-            raise ConfigError(f"variant with {dict(zip(names, row.tolist()))}: {err}") from None
+            raise ConfigError(f"variant with {dict(zip(names, row.tolist(), strict=True))}: {err}") from None
         models.append(model_for(v, scenario))
     for name in dir(model):
         base = getattr(model, name, None)
@@ -154,8 +157,9 @@ def _structural_fields(vehicle, scenario, model, params, names, fields) -> None:
             continue
         values = np.stack([getattr(m, name) for m in models])
         if values.shape[1:] != base.shape:
-            raise ConfigError(f"parameters {', '.join(names)} change the size of {name}; they cannot vary "
-                              "inside one compiled program")
+            raise ConfigError(
+                f"parameters {', '.join(names)} change the size of {name}; they cannot vary inside one compiled program"
+            )
         if np.array_equal(values, np.broadcast_to(base, values.shape)):
             continue
         if name in SAMEFRAME:

@@ -123,8 +123,7 @@ class Vehicle:
     def validate(self, where: str = "vehicle") -> None:
         """Raise ConfigError where the parts do not fit together."""
         if self.wheel.radius <= self.hub.radius:
-            raise ConfigError(f"{where}: wheel.radius {self.wheel.radius!r} must exceed hub.radius "
-                              f"{self.hub.radius!r}")
+            raise ConfigError(f"{where}: wheel.radius {self.wheel.radius!r} must exceed hub.radius {self.hub.radius!r}")
 
 
 def load_vehicle(path: str | Path | None) -> Vehicle:
@@ -163,8 +162,14 @@ def _fmt(*xs: float) -> str:
     return " ".join(f"{x:.10g}" for x in xs)
 
 
-def mjcf(v: Vehicle, *, time_step: float = 0.005, friction: float = 0.7,
-         gravity: tuple[float, float, float] = (0.0, 0.0, -9.81), ground_contacts_only: bool = True) -> str:
+def mjcf(
+    v: Vehicle,
+    *,
+    time_step: float = 0.005,
+    friction: float = 0.7,
+    gravity: tuple[float, float, float] = (0.0, 0.0, -9.81),
+    ground_contacts_only: bool = True,
+) -> str:
     """MJCF text of the vehicle on a ground plane.
 
     The ground geom has priority 1, so the contact friction is the ground's
@@ -196,34 +201,47 @@ def mjcf(v: Vehicle, *, time_step: float = 0.005, friction: float = 0.7,
       </body>""")
     act = []
     for name in CORNERS:
-        act.append(f'<general name="drive_{name}_v" joint="drive_{name}" gainprm="{mo.drive_kv:.10g}" '
-                   f'biastype="affine" biasprm="0 0 {-mo.drive_kv:.10g}"/>')
+        act.append(
+            f'<general name="drive_{name}_v" joint="drive_{name}" gainprm="{mo.drive_kv:.10g}" '
+            f'biastype="affine" biasprm="0 0 {-mo.drive_kv:.10g}"/>'
+        )
     for name in CORNERS:
-        act.append(f'<general name="steer_{name}_p" joint="steer_{name}" gainprm="{mo.steer_kp:.10g}" '
-                   f'biastype="affine" biasprm="0 {-mo.steer_kp:.10g} 0"/>')
+        act.append(
+            f'<general name="steer_{name}_p" joint="steer_{name}" gainprm="{mo.steer_kp:.10g}" '
+            f'biastype="affine" biasprm="0 {-mo.steer_kp:.10g} 0"/>'
+        )
     for name in CORNERS:
-        act.append(f'<general name="drive_{name}_p" joint="drive_{name}" dyntype="integrator" '
-                   f'gainprm="{mo.drive_kp:.10g}" biastype="affine" biasprm="0 {-mo.drive_kp:.10g} 0"/>')
+        act.append(
+            f'<general name="drive_{name}_p" joint="drive_{name}" dyntype="integrator" '
+            f'gainprm="{mo.drive_kp:.10g}" biastype="affine" biasprm="0 {-mo.drive_kp:.10g} 0"/>'
+        )
     for name in CORNERS:
-        act.append(f'<general name="steer_{name}_v" joint="steer_{name}" gainprm="{mo.steer_kv:.10g}" '
-                   f'biastype="affine" biasprm="0 0 {-mo.steer_kv:.10g}"/>')
+        act.append(
+            f'<general name="steer_{name}_v" joint="steer_{name}" gainprm="{mo.steer_kv:.10g}" '
+            f'biastype="affine" biasprm="0 0 {-mo.steer_kv:.10g}"/>'
+        )
     return f"""<mujoco model="batchveh">
   <option timestep="{time_step:.10g}" integrator="implicitfast" gravity="{_fmt(*gravity)}"/>
   <visual><global offwidth="640" offheight="480"/></visual>
+  <asset>
+    <texture name="sky" type="skybox" builtin="gradient" rgb1=".5 .7 .9" rgb2=".9 .9 .95" width="64" height="64"/>
+    <texture name="grid" type="2d" builtin="checker" rgb1=".62 .66 .6" rgb2=".5 .54 .48" width="64" height="64"/>
+    <material name="grid" texture="grid" texrepeat="1 1" texuniform="true"/>
+  </asset>
   <worldbody>
     <light pos="0 0 6" dir="0 0 -1" directional="true"/>
     <geom name="{GROUND}" type="plane" size="0 0 1" priority="1" friction="{friction:.10g} 0 0"
-          contype="2" conaffinity="1" rgba=".6 .65 .6 1"/>
+          contype="2" conaffinity="1" material="grid"/>
     <body name="chassis" pos="{_fmt(c.x_cg, c.y_cg, c.z_cg)}">
       <freejoint name="chassis"/>
       <geom name="chassis" type="box" size="{_fmt(c.length / 2, c.width / 2, c.height / 2)}"
             mass="{c.mass:.10g}" contype="0" conaffinity="0" rgba=".8 .8 .8 1"/>
       <geom name="payload" type="sphere" size="0.02" pos="{_fmt(p.x, p.y, p.z)}" mass="{p.mass:.10g}"
-            contype="0" conaffinity="0" rgba=".9 .3 .2 1"/>{''.join(bodies)}
+            contype="0" conaffinity="0" rgba=".9 .3 .2 1"/>{"".join(bodies)}
     </body>
   </worldbody>
   <actuator>
-    {chr(10).join('    ' + a for a in act).strip()}
+    {chr(10).join("    " + a for a in act).strip()}
   </actuator>
 </mujoco>
 """
@@ -258,8 +276,10 @@ def layout(m: mujoco.MjModel) -> Layout:
     return Layout(
         motor_dof=np.array([m.jnt_dofadr[j] for j in jid]),
         motor_qpos=np.array([m.jnt_qposadr[j] for j in jid]),
-        drive_vel_act=acts("drive", "v"), drive_pos_act=acts("drive", "p"),
-        steer_pos_act=acts("steer", "p"), steer_vel_act=acts("steer", "v"),
+        drive_vel_act=acts("drive", "v"),
+        drive_pos_act=acts("drive", "p"),
+        steer_pos_act=acts("steer", "p"),
+        steer_vel_act=acts("steer", "v"),
         ground_geom=m.geom(GROUND).id,
         wheel_geoms=np.array([m.geom(f"wheel_{c}").id for c in CORNERS]),
     )

@@ -113,7 +113,7 @@ def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="h
     be = engine.make_backend(kind, sc, cfg, chunk, matmul_precision=matmul)
     out, t_run = [], 0.0
     for start in range(0, len(table), be.chunk_size):
-        batch = make_batch(spec.vehicle, sc, _cols(table.iloc[start:start + be.chunk_size], spec))
+        batch = make_batch(spec.vehicle, sc, _cols(table.iloc[start : start + be.chunk_size], spec))
         set_solver(batch.model, solver, 1e-12 if kind == "mujoco" and x64 else None)
         t0 = time.perf_counter()
         out.append(be.run(batch))
@@ -143,11 +143,19 @@ def accuracy(cols, ref):
             continue
         for stat in ("mean", "peak", "peak_lp"):
             for group, motors in (("sum", ("drive_sum",)), ("wheel", ("drive_lf", "drive_rf", "drive_lr", "drive_rr"))):
-                e = np.concatenate([np.abs(np.asarray(cols[f"{m}_{stat}"])[sel] - np.asarray(ref[f"{m}_{stat}"])[sel])
-                                    / np.maximum(np.abs(np.asarray(ref[f"{m}_{stat}"])[sel]), FLOOR_NM)
-                                    for m in motors])
-                out[f"{label}_{group}_{stat}"] = {"median": float(np.median(e)), "p99": float(np.percentile(e, 99)),
-                                                  "max": float(e.max()), "n": int(sel.sum())}
+                e = np.concatenate(
+                    [
+                        np.abs(np.asarray(cols[f"{m}_{stat}"])[sel] - np.asarray(ref[f"{m}_{stat}"])[sel])
+                        / np.maximum(np.abs(np.asarray(ref[f"{m}_{stat}"])[sel]), FLOOR_NM)
+                        for m in motors
+                    ]
+                )
+                out[f"{label}_{group}_{stat}"] = {
+                    "median": float(np.median(e)),
+                    "p99": float(np.percentile(e, 99)),
+                    "max": float(e.max()),
+                    "n": int(sel.sum()),
+                }
     return out
 
 
@@ -161,8 +169,13 @@ def main():
     ap.add_argument("--solvers", nargs="*", default=["default"], choices=list(SOLVERS))
     ap.add_argument("--precisions", nargs="*", default=["f32"], choices=["f32", "f64"], help="mjx float precisions")
     ap.add_argument("--skip-cpu", action="store_true")
-    ap.add_argument("--matmul", nargs="*", default=["highest"], choices=["default", "high", "highest"],
-                    help="JAX matmul precisions to compare for mjx (GPU float32 'default' may use TF32)")
+    ap.add_argument(
+        "--matmul",
+        nargs="*",
+        default=["highest"],
+        choices=["default", "high", "highest"],
+        help="JAX matmul precisions to compare for mjx (GPU float32 'default' may use TF32)",
+    )
     args = ap.parse_args()
     import jax
     import mujoco
@@ -173,10 +186,17 @@ def main():
     dev = jax.devices()[0]
     tag = args.tag or dev.device_kind.replace(" ", "_")
     rows = []
-    info = {"date": time.strftime("%Y-%m-%d"), "device": f"{len(jax.devices())} x {dev.device_kind}",
-            "cpu_threads": os.cpu_count(), "mujoco": mujoco.__version__, "jax": jax.__version__,
-            "python": platform.python_version(), "command": " ".join(sys.argv), "steps": n_steps,
-            "time_step": spec.scenario.time_step}
+    info = {
+        "date": time.strftime("%Y-%m-%d"),
+        "device": f"{len(jax.devices())} x {dev.device_kind}",
+        "cpu_threads": os.cpu_count(),
+        "mujoco": mujoco.__version__,
+        "jax": jax.__version__,
+        "python": platform.python_version(),
+        "command": " ".join(sys.argv),
+        "steps": n_steps,
+        "time_step": spec.scenario.time_step,
+    }
 
     # the converged reference on a fixed sample
     _, ref_table = slope_table(args.ref_variants, seed=1)
@@ -189,7 +209,7 @@ def main():
         _, cpu_table = slope_table(args.cpu_variants, seed=2)
         raw_rate, nthread = bench_raw_batch(spec, cpu_table, n_steps)
         rows.append({"name": f"raw mujoco.batch ({nthread} threads)", "rate": raw_rate})
-        ser = bench_serial(spec, cpu_table.iloc[:args.serial_variants], n_steps)
+        ser = bench_serial(spec, cpu_table.iloc[: args.serial_variants], n_steps)
         rows.append({"name": "serial mj_step loop (1 thread)", "rate": ser})
         cols, wall, _, _ = run_backend("mujoco", spec, cpu_table, args.cpu_variants)
         rows.append({"name": f"batchveh mujoco ({nthread} threads)", "rate": len(cpu_table) * n_steps / wall})
@@ -201,35 +221,45 @@ def main():
         jax.config.update("jax_enable_x64", x64)
         cols_acc, *_ = run_backend("mjx", spec, ref_table, args.ref_variants, solver, matmul=mm)
         acc = accuracy(cols_acc, ref)
+        label = f"batchveh mjx {solver} {'f64' if x64 else 'f32'}{'' if mm == 'highest' else ' mm=' + mm}"
         for size in args.mjx_sizes:
             _, table = slope_table(size, seed=3)
             try:
                 _, wall, comp, peak = run_backend("mjx", spec, table, size, solver, matmul=mm)
             except Exception as err:  # out of memory: record and go on
-                rows.append({"name": f"batchveh mjx {solver} {'f64' if x64 else 'f32'}{'' if mm == 'highest' else ' mm=' + mm} n={size}",
-                             "error": str(err)[:200]})
+                rows.append({"name": f"{label} n={size}", "error": str(err)[:200]})
                 continue
-            row = {"name": f"batchveh mjx {solver} {'f64' if x64 else 'f32'}{'' if mm == 'highest' else ' mm=' + mm} n={size}",
-                   "rate": size * n_steps / wall, "compile_s": comp, "peak_mem_gb": peak / 1e9,
-                   "accuracy": acc}
+            row = {
+                "name": f"{label} n={size}",
+                "rate": size * n_steps / wall,
+                "compile_s": comp,
+                "peak_mem_gb": peak / 1e9,
+                "accuracy": acc,
+            }
             rows.append(row)
             print(row, flush=True)
     for r in rows:
         if "rate" in r:
             r["sim_s_per_s"] = r["rate"] / n_steps * sim_s
             r["vs_raw_batch"] = r["rate"] / raw_rate if raw_rate else None
-    print(f"\n{'row':44s} {'var-steps/s':>11s} {'x raw':>6s} {'comp s':>6s} {'mem GB':>6s} | non-slipping, "
-          "median/p99 rel. error: sum mean, wheel mean, wheel peak, wheel peak_lp")
+    print(
+        f"\n{'row':44s} {'var-steps/s':>11s} {'x raw':>6s} {'comp s':>6s} {'mem GB':>6s} | non-slipping, "
+        "median/p99 rel. error: sum mean, wheel mean, wheel peak, wheel peak_lp"
+    )
     for r in rows:
         if "rate" not in r:
             print(f"{r['name']:48s} failed: {r['error']}")
             continue
         a = r.get("accuracy", {})
         ratio = f"{r['vs_raw_batch']:.2f}" if r.get("vs_raw_batch") else "-"
-        errs = " ".join(f"{a[k]['median']:.1e}/{a[k]['p99']:.1e}" if k in a else "-"
-                        for k in ("noslip_sum_mean", "noslip_wheel_mean", "noslip_wheel_peak", "noslip_wheel_peak_lp"))
-        print(f"{r['name']:44s} {r['rate']:11.3g} {ratio:>6s} {r.get('compile_s', 0):6.1f} "
-              f"{r.get('peak_mem_gb', 0):6.2f} | {errs}")
+        errs = " ".join(
+            f"{a[k]['median']:.1e}/{a[k]['p99']:.1e}" if k in a else "-"
+            for k in ("noslip_sum_mean", "noslip_wheel_mean", "noslip_wheel_peak", "noslip_wheel_peak_lp")
+        )
+        print(
+            f"{r['name']:44s} {r['rate']:11.3g} {ratio:>6s} {r.get('compile_s', 0):6.1f} "
+            f"{r.get('peak_mem_gb', 0):6.2f} | {errs}"
+        )
     path = Path(__file__).resolve().parent / "results" / f"{tag}.json"
     path.write_text(json.dumps({"info": info, "rows": rows}, indent=1))
     print(f"wrote {path}")

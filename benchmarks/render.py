@@ -1,6 +1,6 @@
 """Write benchmarks/RESULTS.md from benchmarks/results/*.json and benchmarks/NOTES.md.
 
-    python benchmarks/render.py
+python benchmarks/render.py
 """
 
 import json
@@ -16,22 +16,30 @@ def _err(a, k):
 
 def bench_table(d):
     i = d["info"]
-    lines = [f"### {i['device']}, {i['cpu_threads']} CPU threads ({i['date']})", "",
-             f"mujoco {i['mujoco']}, jax {i['jax']}, Python {i['python']}; {i['steps']} steps of "
-             f"{i['time_step']} s per variant (sweeps/slope.yaml variants).", "",
-             f"Command: `python {i['command']}`", "",
-             "| row | variant-steps/s | sim s / wall s | x raw mujoco.batch | compile s | peak GPU GB | "
-             "sum mean err | wheel mean err | wheel peak err | wheel peak_lp err |",
-             "| --- | ---: | ---: | ---: | ---: | ---: | --- | --- | --- | --- |"]
+    lines = [
+        f"### {i['device']}, {i['cpu_threads']} CPU threads ({i['date']})",
+        "",
+        f"mujoco {i['mujoco']}, jax {i['jax']}, Python {i['python']}; {i['steps']} steps of "
+        f"{i['time_step']} s per variant (sweeps/slope.yaml variants).",
+        "",
+        f"Command: `python {i['command']}`",
+        "",
+        "| row | variant-steps/s | sim s / wall s | x raw mujoco.batch | compile s | peak GPU GB | "
+        "sum mean err | wheel mean err | wheel peak err | wheel peak_lp err |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | --- | --- | --- | --- |",
+    ]
     for r in d["rows"]:
         if "rate" not in r:
             lines.append(f"| {r['name']} | failed: {r['error']} | | | | | | | | |")
             continue
         a = r.get("accuracy", {})
         ratio = f"{r['vs_raw_batch']:.2f}" if r.get("vs_raw_batch") else "-"
-        lines.append(f"| {r['name']} | {r['rate']:.3g} | {r['sim_s_per_s']:.3g} | {ratio} | "
-                     f"{r.get('compile_s', 0):.1f} | {r.get('peak_mem_gb', 0):.2f} | "
-                     + " | ".join(_err(a, k) for k in ERR_KEYS) + " |")
+        lines.append(
+            f"| {r['name']} | {r['rate']:.3g} | {r['sim_s_per_s']:.3g} | {ratio} | "
+            f"{r.get('compile_s', 0):.1f} | {r.get('peak_mem_gb', 0):.2f} | "
+            + " | ".join(_err(a, k) for k in ERR_KEYS)
+            + " |"
+        )
     return "\n".join(lines)
 
 
@@ -39,17 +47,25 @@ def scaling_table(files):
     rows = [json.loads(f.read_text().strip().splitlines()[-1]) for f in files]
     lines = ["| GPUs | variants | solver | variant-steps/s | compile s |", "| ---: | ---: | --- | ---: | ---: |"]
     for r in sorted(rows, key=lambda r: (r["devices"], r["variants"])):
-        lines.append(f"| {r['devices']} x {r['kind']} | {r['variants']} | {r['solver']} | "
-                     f"{r['variant_steps_per_s']:.3g} | {r['compile_s']:.1f} |")
+        lines.append(
+            f"| {r['devices']} x {r['kind']} | {r['variants']} | {r['solver']} | "
+            f"{r['variant_steps_per_s']:.3g} | {r['compile_s']:.1f} |"
+        )
     return "\n".join(lines)
 
 
 def main():
-    out = [(HERE / "NOTES.md").read_text().rstrip(), "", "## Speed and accuracy tables", "",
-           "Errors: median / p99 over non-slipping variants of |x - ref| / max(|ref|, 1 N m), against MuJoCo C "
-           "in float64 with tolerance 1e-12 and 200 iterations on 256 variants. 'sum' is the four-wheel drive "
-           "sum (fixed by physics); 'wheel' pools the four drive motors (their split is ill-conditioned); "
-           "'peak_lp' is the peak after the 50 ms low-pass filter.", ""]
+    out = [
+        (HERE / "NOTES.md").read_text().rstrip(),
+        "",
+        "## Speed and accuracy tables",
+        "",
+        "Errors: median / p99 over non-slipping variants of |x - ref| / max(|ref|, 1 N m), against MuJoCo C "
+        "in float64 with tolerance 1e-12 and 200 iterations on 256 variants. 'sum' is the four-wheel drive "
+        "sum (fixed by physics); 'wheel' pools the four drive motors (their split is ill-conditioned); "
+        "'peak_lp' is the peak after the 50 ms low-pass filter.",
+        "",
+    ]
     for f in sorted((HERE / "results").glob("*.json")):
         if "scaling" in f.name:
             continue
@@ -57,8 +73,15 @@ def main():
         out += [bench_table(d), "", f"(raw data: `benchmarks/results/{f.name}`)", ""]
     scaling = sorted((HERE / "results").glob("*scaling*.json"))
     if scaling:
-        out += ["## Several GPUs of one host", "", "`python benchmarks/scaling.py --n N --solver newton8`, "
-                "one GPU with CUDA_VISIBLE_DEVICES=0, then both; float32.", "", scaling_table(scaling), ""]
+        out += [
+            "## Several GPUs of one host",
+            "",
+            "`python benchmarks/scaling.py --n N --solver newton8`, "
+            "one GPU with CUDA_VISIBLE_DEVICES=0, then both; float32.",
+            "",
+            scaling_table(scaling),
+            "",
+        ]
     (HERE / "RESULTS.md").write_text("\n".join(out) + "\n")
     print(f"wrote {HERE / 'RESULTS.md'}")
 

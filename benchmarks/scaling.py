@@ -9,7 +9,6 @@ Prints one JSON line: devices, variants, variant-steps/s (run only, after the co
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -23,17 +22,25 @@ def main():
     ap.add_argument("--repeat", type=int, default=2)
     args = ap.parse_args()
     import jax
-
     from bench import run_backend, slope_table
 
     spec, table = slope_table(args.n, seed=3)
     best = 0.0
     for _ in range(args.repeat):  # the first call compiles; keep the best run
-        t0 = time.perf_counter()
         _, wall, comp, _ = run_backend("mjx", spec, table, args.n, args.solver)
         best = max(best, args.n * spec.scenario.n_steps / wall)
-    print(json.dumps({"devices": len(jax.devices()), "kind": jax.devices()[0].device_kind, "variants": args.n,
-                      "solver": args.solver, "variant_steps_per_s": best, "compile_s": comp}))
+    print(
+        json.dumps(
+            {
+                "devices": len(jax.devices()),
+                "kind": jax.devices()[0].device_kind,
+                "variants": args.n,
+                "solver": args.solver,
+                "variant_steps_per_s": best,
+                "compile_s": comp,
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -24,8 +24,7 @@ print(json.dumps({"devices": len(jax.devices()), "chunk": be.chunk_size,
 
 
 def _run(n_devices):
-    env = {**os.environ, "XLA_FLAGS": f"--xla_force_host_platform_device_count={n_devices}",
-           "JAX_PLATFORMS": "cpu"}
+    env = {**os.environ, "XLA_FLAGS": f"--xla_force_host_platform_device_count={n_devices}", "JAX_PLATFORMS": "cpu"}
     out = subprocess.run([sys.executable, "-c", _SCRIPT], capture_output=True, text=True, env=env, timeout=600)
     assert out.returncode == 0, out.stderr[-3000:]
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -36,5 +35,5 @@ def test_two_devices_match_one():
     assert one["devices"] == 1 and two["devices"] == 2
     assert two["chunk"] % 2 == 0
     assert len(two["sum"]) == len(one["sum"]) == 6
-    for a, b in zip(one["sum"], two["sum"]):
+    for a, b in zip(one["sum"], two["sum"], strict=True):
         assert abs(a - b) <= 1e-4 * max(1.0, abs(a)), (one, two)

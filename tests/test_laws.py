@@ -25,8 +25,9 @@ def test_smooth_step_has_zero_rate_at_both_ends():
 
 def test_sine_table_constant():
     assert float(laws.sine(0.25, 1.0, 2.0, 1.0)) == pytest.approx(3.0)
-    np.testing.assert_allclose(laws.table(jnp.array([-1.0, 0.5, 1.5, 9.0]), (0.0, 1.0, 2.0), (0.0, 2.0, 0.0)),
-                               [0, 1, 1, 0])
+    np.testing.assert_allclose(
+        laws.table(jnp.array([-1.0, 0.5, 1.5, 9.0]), (0.0, 1.0, 2.0), (0.0, 2.0, 0.0)), [0, 1, 1, 0]
+    )
     assert float(laws.constant(7.0, 3.0)) == 3.0
 
 

@@ -34,8 +34,9 @@ def test_slope_torque_sum_matches_closed_form(vehicle, slope_deg):
         assert abs(s["drive_sum_mean"]) < SUM_ATOL_FLAT
     else:
         rtol = SUM_RTOL_5DEG if slope_deg == 5 else SUM_RTOL
-        np.testing.assert_allclose(s["drive_sum_mean"], expected, rtol=rtol,
-                                   err_msg=f"four-wheel drive sum at {slope_deg} deg")
+        np.testing.assert_allclose(
+            s["drive_sum_mean"], expected, rtol=rtol, err_msg=f"four-wheel drive sum at {slope_deg} deg"
+        )
     # the sum is fixed by physics; each wheel carries part of it, with the same sign
     per_wheel = [s[f"drive_{c}_mean"] for c in ("lf", "rf", "lr", "rr")]
     np.testing.assert_allclose(sum(per_wheel), s["drive_sum_mean"], rtol=1e-9)
@@ -90,8 +91,11 @@ def test_seed_scenario_2_steering_within_scrub_bound(vehicle):
         assert 0.5 < s[f"steer_{c}_peak"] <= bound, (c, s[f"steer_{c}_peak"], bound)
     # each wheel reaches its seed angle: -45, +45, +45, -45 deg
     last = res.series.iloc[-1]
-    np.testing.assert_allclose(np.rad2deg([last.alpha_lf, last.alpha_rf, last.alpha_lr, last.alpha_rr]),
-                               [-45, 45, 45, -45], atol=STEER_TRACK_DEG)
+    np.testing.assert_allclose(
+        np.rad2deg([last.alpha_lf, last.alpha_rf, last.alpha_lr, last.alpha_rr]),
+        [-45, 45, 45, -45],
+        atol=STEER_TRACK_DEG,
+    )
     # the drive speeds are the seed's 0.134 rad/s at the end of the ramp
     np.testing.assert_allclose(abs(last.omega_ref_lf), 0.134, atol=5e-4)
 

@@ -29,9 +29,13 @@ SPLIT_ATOL = 2.5
 
 
 def _spec(tmp_path, name="s", **over):
-    raw = {"name": name, "scenario": "straight_line", "fixed": {"total_time": 1.5, "ramp_time": 0.5},
-           "sweep": {"method": "grid", "params": {"slope_deg": [0, 10, 20], "friction": [0.3, 0.9]}},
-           "output": str(tmp_path / name)}
+    raw = {
+        "name": name,
+        "scenario": "straight_line",
+        "fixed": {"total_time": 1.5, "ramp_time": 0.5},
+        "sweep": {"method": "grid", "params": {"slope_deg": [0, 10, 20], "friction": [0.3, 0.9]}},
+        "output": str(tmp_path / name),
+    }
     raw.update(over)
     path = tmp_path / f"{name}.yaml"
     path.write_text(yaml.safe_dump(raw, sort_keys=False))
@@ -42,8 +46,12 @@ def test_grid_random_lhs_counts_and_values(tmp_path):
     grid = variants(load_spec(_spec(tmp_path)))
     assert len(grid) == 6 and list(grid.columns) == ["variant", "slope_deg", "friction"]
     assert sorted(set(grid.slope_deg)) == [0, 10, 20] and sorted(set(grid.friction)) == [0.3, 0.9]
-    rng = {"method": "random", "n": 50, "seed": 3,
-           "params": {"friction": {"low": 0.1, "high": 1.0, "log": True}, "slope_deg": {"low": 0, "high": 20}}}
+    rng = {
+        "method": "random",
+        "n": 50,
+        "seed": 3,
+        "params": {"friction": {"low": 0.1, "high": 1.0, "log": True}, "slope_deg": {"low": 0, "high": 20}},
+    }
     r = variants(load_spec(_spec(tmp_path, "r", sweep=rng)))
     assert len(r) == 50 and r.friction.between(0.1, 1.0).all() and r.slope_deg.between(0, 20).all()
     assert r.equals(variants(load_spec(_spec(tmp_path, "r2", sweep=rng))))  # seeded
@@ -74,9 +82,16 @@ def test_sweep_physics_both_backends_and_single_runs(tmp_path, vehicle):
         np.testing.assert_allclose(dj[col][~slip], dc[col][~slip], atol=SPLIT_ATOL, err_msg=col)
     # a batched variant equals the same variant run alone
     k = 3
-    alone = batchveh.simulate(vehicle, batchveh.make_scenario(
-        "straight_line", total_time=1.5, ramp_time=0.5, slope_deg=float(dc.slope_deg[k]),
-        friction=float(dc.friction[k]))).stats
+    alone = batchveh.simulate(
+        vehicle,
+        batchveh.make_scenario(
+            "straight_line",
+            total_time=1.5,
+            ramp_time=0.5,
+            slope_deg=float(dc.slope_deg[k]),
+            friction=float(dc.friction[k]),
+        ),
+    ).stats
     for col in ("drive_lf_mean", "drive_sum_peak", "steer_rr_p95", "drive_lf_peak_lp", "distance"):
         # controls are evaluated by JAX in float32 here, in differently shaped vmaps: 5e-8 apart
         np.testing.assert_allclose(dc[col][k], alone[col], rtol=1e-6, atol=1e-6, err_msg=col)
@@ -117,8 +132,19 @@ def test_resume_after_kill_equals_uninterrupted(tmp_path):
     full = tmp_path / "full"
     run_sweep(load_spec(path), out=full, backend="mujoco", chunk_size=2, progress=False)
     out = tmp_path / "killed"
-    cmd = [sys.executable, "-m", "batchveh.sweep", str(path), "--backend", "mujoco", "--chunk-size", "2",
-           "--out", str(out), "--quiet"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "batchveh.sweep",
+        str(path),
+        "--backend",
+        "mujoco",
+        "--chunk-size",
+        "2",
+        "--out",
+        str(out),
+        "--quiet",
+    ]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.time() + 300
     while len(list(out.glob("part-*.parquet"))) < 2 and time.time() < deadline and proc.poll() is None:
@@ -128,26 +154,30 @@ def test_resume_after_kill_equals_uninterrupted(tmp_path):
     kept = len(list(out.glob("part-*.parquet")))
     assert 1 <= kept < 6, kept  # killed halfway: some chunks written, not all
     assert main([str(path), "--backend", "mujoco", "--chunk-size", "2", "--out", str(out), "--quiet"]) == 3
-    assert main([str(path), "--backend", "mujoco", "--chunk-size", "2", "--out", str(out), "--quiet",
-                 "--resume"]) == 0
+    assert main([str(path), "--backend", "mujoco", "--chunk-size", "2", "--out", str(out), "--quiet", "--resume"]) == 0
     a, b = batchveh.load(full), batchveh.load(out)
     pd.testing.assert_frame_equal(a, b)
     assert not list(out.glob(".*.tmp"))
 
 
-@pytest.mark.parametrize("edit, expect", [
-    ({"sweep": {"method": "grid", "params": {"slope": [1]}}}, ["sweep.params.slope", "unknown parameter",
-                                                               "slope_deg"]),
-    ({"sweep": {"method": "sobol", "params": {"slope_deg": [1]}}}, ["sweep.method", "'sobol'", "grid, random"]),
-    ({"fixed": {"friction": -1}}, ["fixed.friction", "-1", "> 0"]),
-    ({"sweep": {"method": "grid", "params": {"friction": "high"}}}, ["sweep.params.friction", "'high'"]),
-    ({"outptu": "x"}, ["outptu", "allowed keys"]),
-    ({"sweep": {"method": "random", "params": {"friction": {"low": 0.1, "high": 1}}}}, ["sweep.n"]),
-    ({"scenario": "drift"}, ["scenario", "'drift'", "known:"]),
-    ({"sweep": {"method": "grid", "params": {"time_step": [0.005, 0.0025]}}}, ["time_step", "cannot vary"]),
-    ({"solver": {"iterations": 0}}, ["solver.iterations", "0", "integer >= 1"]),
-    ({"solver": {"type": "pgs"}}, ["solver.type", "'pgs'", "newton, cg"]),
-])
+@pytest.mark.parametrize(
+    "edit, expect",
+    [
+        (
+            {"sweep": {"method": "grid", "params": {"slope": [1]}}},
+            ["sweep.params.slope", "unknown parameter", "slope_deg"],
+        ),
+        ({"sweep": {"method": "sobol", "params": {"slope_deg": [1]}}}, ["sweep.method", "'sobol'", "grid, random"]),
+        ({"fixed": {"friction": -1}}, ["fixed.friction", "-1", "> 0"]),
+        ({"sweep": {"method": "grid", "params": {"friction": "high"}}}, ["sweep.params.friction", "'high'"]),
+        ({"outptu": "x"}, ["outptu", "allowed keys"]),
+        ({"sweep": {"method": "random", "params": {"friction": {"low": 0.1, "high": 1}}}}, ["sweep.n"]),
+        ({"scenario": "drift"}, ["scenario", "'drift'", "known:"]),
+        ({"sweep": {"method": "grid", "params": {"time_step": [0.005, 0.0025]}}}, ["time_step", "cannot vary"]),
+        ({"solver": {"iterations": 0}}, ["solver.iterations", "0", "integer >= 1"]),
+        ({"solver": {"type": "pgs"}}, ["solver.type", "'pgs'", "newton, cg"]),
+    ],
+)
 def test_bad_spec_one_line(tmp_path, capsys, edit, expect):
     path = _spec(tmp_path, **edit)
     code = main([str(path), "--quiet"])
@@ -160,8 +190,12 @@ def test_bad_spec_one_line(tmp_path, capsys, edit, expect):
 
 def test_diverging_variant_is_flagged_and_sweep_goes_on(tmp_path):
     # a servo gain far past stability with dt 20 ms diverges; the other variant does not
-    path = _spec(tmp_path, "d", fixed={"total_time": 1.0, "ramp_time": 0.5, "time_step": 0.02},
-                 sweep={"method": "zip", "params": {"motors.steer_kp": [20000, 1e9], "slope_deg": [5, 5]}})
+    path = _spec(
+        tmp_path,
+        "d",
+        fixed={"total_time": 1.0, "ramp_time": 0.5, "time_step": 0.02},
+        sweep={"method": "zip", "params": {"motors.steer_kp": [20000, 1e9], "slope_deg": [5, 5]}},
+    )
     run_sweep(load_spec(path), out=tmp_path / "d", backend="mujoco", progress=False)
     df = batchveh.load(tmp_path / "d")
     assert df.status[0] == "ok" and df.status[1] in ("diverged", "flipped"), list(df.status)
@@ -192,9 +226,15 @@ def test_non_finite_samples_mark_a_variant_diverged():
 
     cfg = stats.StatsConfig.make(0.01, 4)
     acc = stats.init(cfg, (2,))
-    good = {"tau": np.ones((2, 1, 8)), "omega": np.ones((2, 1, 4)), "alpha": np.zeros((2, 1, 4)),
-            "ref": np.ones((2, 1, 8)), "pos": np.zeros((2, 1, 3)), "quat": np.tile([1.0, 0, 0, 0], (2, 1, 1)),
-            "vel": np.zeros((2, 1, 3))}
+    good = {
+        "tau": np.ones((2, 1, 8)),
+        "omega": np.ones((2, 1, 4)),
+        "alpha": np.zeros((2, 1, 4)),
+        "ref": np.ones((2, 1, 8)),
+        "pos": np.zeros((2, 1, 3)),
+        "quat": np.tile([1.0, 0, 0, 0], (2, 1, 1)),
+        "vel": np.zeros((2, 1, 3)),
+    }
     for i in range(4):
         s = {k: v.copy() for k, v in good.items()}
         if i == 2:
@@ -212,14 +252,19 @@ def test_block_update_equals_step_by_step():
     rng = np.random.default_rng(0)
     n, steps = 3, 37
     cfg = stats.StatsConfig.make(0.01, steps, p95_samples=8)
-    series = {"tau": rng.normal(size=(n, steps, 8)), "omega": rng.normal(size=(n, steps, 4)),
-              "alpha": rng.normal(size=(n, steps, 4)), "ref": rng.normal(size=(n, steps, 8)),
-              "pos": rng.normal(size=(n, steps, 3)), "vel": rng.normal(size=(n, steps, 3)),
-              "quat": np.tile([1.0, 0, 0, 0], (n, steps, 1))}
+    series = {
+        "tau": rng.normal(size=(n, steps, 8)),
+        "omega": rng.normal(size=(n, steps, 4)),
+        "alpha": rng.normal(size=(n, steps, 4)),
+        "ref": rng.normal(size=(n, steps, 8)),
+        "pos": rng.normal(size=(n, steps, 3)),
+        "vel": rng.normal(size=(n, steps, 3)),
+        "quat": np.tile([1.0, 0, 0, 0], (n, steps, 1)),
+    }
     block = stats.finalize(stats.update(stats.init(cfg, (n,)), series, np.arange(steps), cfg), cfg)
     acc = stats.init(cfg, (n,))
     for i in range(steps):
-        acc = stats.update(acc, {k: v[:, i:i + 1] for k, v in series.items()}, np.array([i]), cfg)
+        acc = stats.update(acc, {k: v[:, i : i + 1] for k, v in series.items()}, np.array([i]), cfg)
     one = stats.finalize(acc, cfg)
     for k in block:
         np.testing.assert_allclose(block[k], one[k], rtol=1e-12, atol=1e-12, err_msg=k)
@@ -227,5 +272,5 @@ def test_block_update_equals_step_by_step():
     w = slice(cfg.first, cfg.last + 1)
     np.testing.assert_allclose(block["drive_lf_mean"], series["tau"][:, w, 0].mean(1))
     np.testing.assert_allclose(block["steer_rr_max"], series["tau"][:, w, 7].max(1))
-    strided = np.abs(series["tau"][:, w, 0][:, ::cfg.stride])
+    strided = np.abs(series["tau"][:, w, 0][:, :: cfg.stride])
     np.testing.assert_allclose(block["drive_lf_p95"], np.percentile(strided, 95, axis=1))

@@ -1,0 +1,112 @@
+"""Motor sizing: does a motor (through its gearbox) cover each variant's drive torques?
+
+A motor spec, in YAML:
+
+```yaml
+motors:
+  - name: M100
+    continuous_torque: 1.2   # N m at the motor shaft, thermally sustainable
+    peak_torque: 3.5         # N m at the motor shaft, short-term
+    max_speed: 600           # rad/s at the motor shaft (no-load)
+    corner_speed: 400        # rad/s: above it the torque limit falls as constant power
+    gear_ratio: 20           # motor turns per wheel turn
+    efficiency: 0.9          # gearbox efficiency, 0-1
+```
+
+Checks per variant, on the worst of the four drive motors: the steady-window RMS torque
+against the continuous torque; the whole-run low-pass peak (`peak_lp_all`) against the
+torque limit at that speed; the wheel speed against the maximum speed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from batchveh.config import ConfigError, field, from_mapping, load_yaml
+
+WHEELS = ("drive_lf", "drive_rf", "drive_lr", "drive_rr")
+
+
+@dataclass(frozen=True)
+class Motor:
+    """A drive motor with its gearbox; torques and speeds at the motor shaft."""
+
+    name: str = "motor"
+    continuous_torque: float = field(1.0, unit="N m", gt=0)
+    peak_torque: float = field(3.0, unit="N m", gt=0)
+    max_speed: float = field(600.0, unit="rad/s", gt=0)
+    corner_speed: float = field(400.0, unit="rad/s", gt=0)
+    gear_ratio: float = field(20.0, unit="1", gt=0)
+    efficiency: float = field(0.9, unit="1", gt=0, le=1)
+
+    def validate(self, where: str = "motor") -> None:
+        if self.peak_torque < self.continuous_torque:
+            raise ConfigError(
+                f"{where}.peak_torque: {self.peak_torque!r} is below continuous_torque "
+                f"{self.continuous_torque!r}; allowed: >= continuous_torque"
+            )
+        if self.corner_speed > self.max_speed:
+            raise ConfigError(f"{where}.corner_speed: {self.corner_speed!r} exceeds max_speed {self.max_speed!r}")
+
+    def torque_limit(self, speed: np.ndarray | float) -> np.ndarray:
+        """Peak torque available at motor speed `speed` (rad/s): flat to the corner, then constant power."""
+        w = np.abs(np.asarray(speed, float))
+        limit = np.where(
+            w <= self.corner_speed, self.peak_torque, self.peak_torque * self.corner_speed / np.maximum(w, 1e-12)
+        )
+        return np.where(w <= self.max_speed, limit, 0.0)
+
+    def at_wheel(self, shaft_torque: float) -> float:
+        """Torque at the wheel (N m) for a motor-shaft torque."""
+        return shaft_torque * self.gear_ratio * self.efficiency
+
+
+def load_motors(path: str | Path) -> list[Motor]:
+    """Motors from a YAML file with a `motors:` list (or one motor mapping)."""
+    data = load_yaml(path)
+    items = data.get("motors", [data]) if isinstance(data, dict) else data
+    if not isinstance(items, list) or not items:
+        raise ConfigError(f"{path}: motors: expected a non-empty list of motor mappings")
+    return [from_mapping(Motor, item, f"{path}: motors[{i}]") for i, item in enumerate(items)]
+
+
+def check(df: pd.DataFrame, motor: Motor) -> pd.DataFrame:
+    """Per-variant shaft torques and speed and whether `motor` suffices (columns fits_*)."""
+    scale = motor.gear_ratio * motor.efficiency
+    out = pd.DataFrame(index=df.index)
+    out["shaft_rms"] = df[[f"{w}_rms" for w in WHEELS]].abs().max(axis=1) / scale
+    out["shaft_peak"] = df[[f"{w}_peak_lp_all" for w in WHEELS]].abs().max(axis=1) / scale
+    out["shaft_speed"] = df["wheel_speed"].abs() * motor.gear_ratio
+    out["fits_continuous"] = out.shaft_rms <= motor.continuous_torque
+    out["fits_peak"] = out.shaft_peak <= motor.torque_limit(out.shaft_speed)
+    out["fits_speed"] = out.shaft_speed <= motor.max_speed
+    out["fits"] = out.fits_continuous & out.fits_peak & out.fits_speed
+    return out
+
+
+def smallest(df: pd.DataFrame, catalogue: list[Motor]) -> tuple[Motor | None, pd.DataFrame]:
+    """The motor with the lowest continuous torque that fits every row, and a per-motor summary."""
+    rows: list[dict[str, Any]] = []
+    for m in catalogue:
+        c = check(df, m)
+        rows.append(
+            {
+                "motor": m.name,
+                "continuous_torque": m.continuous_torque,
+                "peak_torque": m.peak_torque,
+                "gear_ratio": m.gear_ratio,
+                "fits_all": bool(c.fits.all()),
+                "fit_fraction": float(c.fits.mean()),
+                "continuous_fails": int((~c.fits_continuous).sum()),
+                "peak_fails": int((~c.fits_peak).sum()),
+                "speed_fails": int((~c.fits_speed).sum()),
+            }
+        )
+    summary = pd.DataFrame(rows).sort_values("continuous_torque").reset_index(drop=True)
+    fitting = [m for m in sorted(catalogue, key=lambda m: m.continuous_torque) if check(df, m).fits.all()]
+    return (fitting[0] if fitting else None), summary
