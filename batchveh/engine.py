@@ -74,6 +74,11 @@ class MjxBackend:
         self._fn: dict[Any, Any] = {}
         self.compile_s = 0.0
 
+    @property
+    def compiles(self) -> int:
+        """Programs compiled so far (one per set of varying fields and chunk shape)."""
+        return len(self._fn)
+
     def _compiled(self, batch: VariantBatch, mx, axes, params):
         from batchveh.rollout import mjx_stats
 
@@ -138,6 +143,7 @@ class MujocoBackend:
 
     name = "mujoco"
     compile_s = 0.0
+    compiles = 0
 
     def __init__(self, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int, nthread: int = 0):
         self.scenario, self.cfg, self.chunk_size = scenario, cfg, chunk_size

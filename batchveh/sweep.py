@@ -183,6 +183,7 @@ def run_sweep(
         "slipping": int(result["slipping"].sum()),
         "wall_s": wall,
         "compile_s": engine.compile_s,
+        "compiles": engine.compiles,
         "variant_steps_per_s": ran * sc.n_steps / wall if wall > 0 else 0.0,
         "out": out,
         "backend": backend,

@@ -67,10 +67,35 @@ def main():
         "",
     ]
     for f in sorted((HERE / "results").glob("*.json")):
-        if "scaling" in f.name:
+        if "scaling" in f.name or "stages" in f.name:
             continue
         d = json.loads(f.read_text())
         out += [bench_table(d), "", f"(raw data: `benchmarks/results/{f.name}`)", ""]
+    stages = sorted((HERE / "results").glob("*stages*.json"))
+    if stages:
+        out += [
+            "## Where a step's time goes",
+            "",
+            "`python benchmarks/stages.py --n 65536 --solver S`: "
+            "cumulative prefixes of mjx.step, jit(vmap) over 65,536 slope variants from a settled state, "
+            "best of 10; 'delta' is the stage's own cost.",
+            "",
+        ]
+        for f in stages:
+            d = json.loads(f.read_text())
+            total = d["rows"][-1]["ms"]
+            out += [
+                f"**{d['solver']}** on {d['device']}: one step {total:.2f} ms "
+                f"({d['n'] / total * 1e3:.3g} variant-steps/s)",
+                "",
+                "| stage | cumulative ms | delta ms | share |",
+                "| --- | ---: | ---: | ---: |",
+            ]
+            out += [
+                f"| {r['stage']} | {r['ms']:.2f} | {r['delta_ms']:.2f} | {100 * r['delta_ms'] / total:.0f}% |"
+                for r in d["rows"]
+            ]
+            out.append("")
     scaling = sorted((HERE / "results").glob("*scaling*.json"))
     if scaling:
         out += [
