@@ -149,8 +149,8 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
     out["min"] = xp.minimum(c["min"], xp.where(inw[:, None], tau, np.inf).min(-2))
     out["max"] = xp.maximum(c["max"], xp.where(inw[:, None], tau, -np.inf).max(-2))
     slot = xp.where(inw & ((i - cfg.first) % cfg.stride == 0), (i - cfg.first) // cfg.stride, -1)  # (B,)
-    hit = xp.arange(cfg.n_buf)[:, None] == slot[None, :]  # (K, B)
-    taken = xp.einsum("kb,...bc->...kc", hit.astype(absx.dtype), absx)
+    hit = xp.arange(cfg.n_buf)[:, None] == slot[None, :]  # (K, B): slot k takes step b of the block
+    taken = xp.take(absx, xp.argmax(hit, axis=-1), axis=-2)  # a gather: cost n K C, not n K B C
     out["buf"] = xp.where(hit.any(-1)[:, None], taken, c["buf"])
     out["peak_all"] = xp.maximum(c["peak_all"], absx.max(-2))
     lp = _lowpass(c["lp"], tau, cfg.dt / (cfg.lowpass_s + cfg.dt), xp)
