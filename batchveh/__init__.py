@@ -10,9 +10,19 @@ __version__ = "0.1.0"
 
 import os as _os
 
-# MuJoCo picks its OpenGL platform when first imported: headless machines need EGL
-if "MUJOCO_GL" not in _os.environ and not _os.environ.get("DISPLAY"):
-    _os.environ["MUJOCO_GL"] = "egl"
+
+def _choose_gl() -> None:
+    """MuJoCo picks its OpenGL platform when first imported; a headless machine needs EGL.
+
+    Chosen only where libEGL can be found: MUJOCO_GL=egl without it breaks `import mujoco`.
+    """
+    import ctypes.util
+
+    if "MUJOCO_GL" not in _os.environ and not _os.environ.get("DISPLAY") and ctypes.util.find_library("EGL"):
+        _os.environ["MUJOCO_GL"] = "egl"
+
+
+_choose_gl()
 
 from batchveh.config import ConfigError
 from batchveh.io import load, metadata, units

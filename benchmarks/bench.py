@@ -33,6 +33,9 @@ SOLVERS = {  # name -> (solver, iterations, ls_iterations)
     "newton4": ("newton", 4, 8),
     "newton8": ("newton", 8, 16),
     "cg16": ("cg", 16, 8),
+    "newton8ls4": ("newton", 8, 4),
+    "newton6ls6": ("newton", 6, 6),
+    "newton6ls4": ("newton", 6, 4),
 }
 
 

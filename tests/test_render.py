@@ -53,3 +53,15 @@ def test_render_cli_writes_a_gif(tmp_path):
 
     with Image.open(out) as im:
         assert im.n_frames == 10 and im.size == (96, 72)
+
+
+def test_import_works_where_egl_is_missing(tmp_path):
+    """Without libEGL (as on the GPU machines), batchveh must still import and run; only rendering needs GL."""
+    code = (
+        "import ctypes.util; ctypes.util.find_library = lambda name: None\n"
+        "import os; os.environ.pop('MUJOCO_GL', None); os.environ.pop('DISPLAY', None)\n"
+        "import batchveh; print(os.environ.get('MUJOCO_GL'))"
+    )
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.strip().splitlines()[-1] == "None"
