@@ -24,11 +24,11 @@ def _choose_gl() -> None:
 
 _choose_gl()
 
-from batchveh.config import ConfigError
-from batchveh.io import load, metadata, units
-from batchveh.scenarios import SCENARIOS, Scenario, load_scenario, make_scenario
-from batchveh.spec import load_spec, spec_from_mapping, variants
-from batchveh.vehicle import MOTORS, Vehicle, load_vehicle
+from batchveh.config import ConfigError  # noqa: E402  (after _choose_gl: these import mujoco)
+from batchveh.io import load, metadata, units  # noqa: E402  (after _choose_gl: these import mujoco)
+from batchveh.scenarios import SCENARIOS, Scenario, load_scenario, make_scenario  # noqa: E402  (after _choose_gl: these import mujoco)
+from batchveh.spec import load_spec, spec_from_mapping, variants  # noqa: E402  (after _choose_gl: these import mujoco)
+from batchveh.vehicle import MOTORS, Vehicle, load_vehicle  # noqa: E402  (after _choose_gl: these import mujoco)
 
 _LAZY = {"simulate": "batchveh.run", "run_sweep": "batchveh.sweep"}
 
