@@ -102,8 +102,8 @@ def envelope(
     *,
     motor: str = "drive_sum",
     x: str = "slope_deg",
-    curve: str = "friction",
-    band: str = "speed_kmh",
+    curve: str | None = "friction",
+    band: str | None = "speed_kmh",
     stats: tuple[str, ...] = ("peak_lp", "rms"),
     rows: str = "usable",
     max_curves: int = 6,
@@ -115,23 +115,24 @@ def envelope(
     `max_curves` evenly spaced values of `curve`.
     """
     data = usable(df) if rows == "usable" else df
-    values = np.sort(data[curve].unique())
-    if len(values) > max_curves:
-        values = values[np.round(np.linspace(0, len(values) - 1, max_curves)).astype(int)]
-        data = data[data[curve].isin(values)]
+    if curve is not None:
+        values = np.sort(data[curve].unique())
+        if len(values) > max_curves:
+            values = values[np.round(np.linspace(0, len(values) - 1, max_curves)).astype(int)]
+            data = data[data[curve].isin(values)]
     fig, axes = plt.subplots(1, len(stats), figsize=(6 * len(stats), 4.5), constrained_layout=True, squeeze=False)
     for ax, stat in zip(axes[0], stats, strict=True):
         col = f"{motor}_{stat}"
-        for value, grp in data.groupby(curve):
+        for value, grp in data.groupby(curve) if curve else [(None, data)]:
             g = grp.groupby(x)[col]
             lo, hi = g.min(), g.max()
-            ax.plot(hi.index, hi.to_numpy(), marker=".", label=f"{curve} = {value:g}")
-            if band in data:
+            ax.plot(hi.index, hi.to_numpy(), marker=".", label=f"{curve} = {value:g}" if curve else "all")
+            if band is not None:
                 ax.fill_between(lo.index, lo.to_numpy(), hi.to_numpy(), alpha=0.2)
         ax.set_xlabel(label(x))
         ax.set_ylabel(f"{motor} {stat} torque [N m]")
         ax.grid(alpha=0.3)
-        ax.set_title(f"{stat}: max over {band} (band: min-max)")
+        ax.set_title(f"{stat}: max over {band} (band: min-max)" if band else f"{stat}: max over the other parameters")
     axes[0][-1].legend(fontsize="small", loc="upper left", bbox_to_anchor=(1.02, 1.0))
     fig.suptitle(f"sweep '{name}': {motor} torque envelope")
     return fig
@@ -213,15 +214,32 @@ def operating_points(df: pd.DataFrame, name: str, motor) -> plt.Figure:
     return fig
 
 
-def sweep_figures(df: pd.DataFrame, name: str, out_dir: str | Path) -> list[Path]:
-    """The figures that fit a sweep's parameters, as PNG in `out_dir` (the sweep CLI's --plots)."""
+def sweep_figures(df: pd.DataFrame, name: str, out_dir: str | Path, swept: list[str] | None = None) -> list[Path]:
+    """The figures that fit a sweep's parameters, as PNG in `out_dir` (the sweep CLI's --plots).
+
+    `swept`: the swept parameter names in spec order (default: the known parameters in `df`).
+    An envelope against slope (or else the first swept parameter), one curve per the next
+    swept parameter; the slope x friction heatmap when both are swept; the steering
+    envelope when a steering parameter is swept.
+    """
+    from batchveh.variants import parameter_specs
+
     out_dir = Path(out_dir)
-    figs = {}
-    if {"slope_deg", "friction"} <= set(df.columns):
-        figs["envelope.png"] = envelope(df, name, band="speed_kmh" if "speed_kmh" in df else "variant")
+    if swept is None:
+        swept = [c for c in df.columns if c in parameter_specs()]
+    if not swept:
+        return []
+    x = "slope_deg" if "slope_deg" in swept else swept[0]
+    others = [p for p in swept if p != x]
+    curve = others[0] if others else None
+    band = others[1] if len(others) > 1 else None
+    figs = {"envelope.png": envelope(df, name, x=x, curve=curve, band=band)}
+    if {"slope_deg", "friction"} <= set(swept):
         figs["heatmap.png"] = heatmap(df, name)
-    if any(c.startswith("steer_") for c in df.columns) and "friction" in df:
-        figs["steering.png"] = steering_envelope(df, name, curve="yaw_rate_dps" if "yaw_rate_dps" in df else "friction")
+    steering = [p for p in ("yaw_rate_dps", "steer_deg", "turn_radius") if p in swept]
+    if steering:
+        over = [p for p in swept if p != steering[0]]
+        figs["steering.png"] = steering_envelope(df, name, x=over[0] if over else steering[0], curve=steering[0])
     paths = []
     for fname, fig in figs.items():
         fig.savefig(out_dir / fname, dpi=100)

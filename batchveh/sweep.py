@@ -258,7 +258,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.plots:
         from batchveh.plot import sweep_figures
 
-        figs = sweep_figures(io.load(s["out"]), spec.name, s["out"])
+        figs = sweep_figures(io.load(s["out"]), spec.name, s["out"], swept=list(spec.params))
         print("figures: " + ", ".join(str(p) for p in figs))
     print(
         f"{s['rows']} rows ({s['ran']} run now): {s['ok']} ok, {s['diverged']} diverged, {s['flipped']} flipped, "

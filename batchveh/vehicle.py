@@ -24,7 +24,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import mujoco
 import numpy as np
@@ -109,6 +109,9 @@ class Vehicle:
     hub: Hub = Hub()
     payload: Payload = Payload()
     motors: Motors = Motors()
+    # 'ground': wheels touch the ground only (fast, the seed's intent); 'all': wheels also
+    # touch each other and the hubs touch the ground
+    contacts: Literal["ground", "all"] = "ground"
 
     @property
     def total_mass(self) -> float:
@@ -168,18 +171,18 @@ def mjcf(
     time_step: float = 0.005,
     friction: float = 0.7,
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.81),
-    ground_contacts_only: bool = True,
 ) -> str:
     """MJCF text of the vehicle on a ground plane.
 
     The ground geom has priority 1, so the contact friction is the ground's
     `friction` whatever the wheels carry (MuJoCo otherwise takes the larger).
-    With `ground_contacts_only`, wheels collide with the ground and nothing else.
+    With `v.contacts == "ground"`, wheels collide with the ground and nothing else.
     """
     c, w, h, p, mo = v.chassis, v.wheel, v.hub, v.payload, v.motors
     # contype/conaffinity bits: wheels are 1, the ground 2; a wheel meets the ground
-    # (1 & 1) but not another wheel (1 & 2 = 0) unless ground_contacts_only is off.
-    wheel_aff = 2 if ground_contacts_only else 3
+    # (1 & 1) but not another wheel (1 & 2 = 0) unless v.contacts is "all".
+    wheel_aff = 2 if v.contacts == "ground" else 3
+    hub_type, hub_aff = (0, 0) if v.contacts == "ground" else (1, 3)
     bodies = []
     for name in CORNERS:
         sx, sy = CORNER_SIGNS[name]
@@ -191,7 +194,7 @@ def mjcf(
         <joint name="steer_{name}" type="hinge" axis="0 0 1" armature="{mo.armature:.10g}"/>
         <geom name="hub_{name}" type="cylinder" size="{_fmt(h.radius, h.length / 2)}"
               pos="{_fmt(hub_local[0], hub_local[1], 0)}" zaxis="0 1 0" mass="{h.mass:.10g}"
-              contype="0" conaffinity="0" rgba=".55 .55 .6 1"/>
+              contype="{hub_type}" conaffinity="{hub_aff}" rgba=".55 .55 .6 1"/>
         <body name="wheel_{name}" pos="{_fmt(wheel_local[0], wheel_local[1], 0)}">
           <joint name="drive_{name}" type="hinge" axis="0 1 0" armature="{mo.armature:.10g}"/>
           <geom name="wheel_{name}" type="cylinder" size="{_fmt(w.radius, w.width / 2)}" zaxis="0 1 0"

@@ -141,3 +141,20 @@ def test_window_acceleration_reads_the_ramp(vehicle):
     assert not ramp["steady"]
     after = simulate(vehicle, sc).stats
     assert after["steady"] and abs(after["window_accel"]) < 0.01
+
+
+def _may_touch(m, a: str, b: str) -> bool:
+    """MuJoCo's contype/conaffinity rule for geoms a and b."""
+    i, j = m.geom(a).id, m.geom(b).id
+    return bool(m.geom_contype[i] & m.geom_conaffinity[j] or m.geom_contype[j] & m.geom_conaffinity[i])
+
+
+def test_only_wheels_touch_the_ground_unless_asked(vehicle):
+    from batchveh.vehicle import build_model
+
+    m = build_model(vehicle)
+    assert _may_touch(m, "wheel_lf", "ground") and _may_touch(m, "wheel_rr", "ground")
+    assert not _may_touch(m, "wheel_lf", "wheel_rf")
+    assert not _may_touch(m, "hub_lf", "ground") and not _may_touch(m, "chassis", "ground")
+    everything = build_model(dataclasses.replace(vehicle, contacts="all"))
+    assert _may_touch(everything, "wheel_lf", "wheel_rf") and _may_touch(everything, "hub_lf", "ground")
