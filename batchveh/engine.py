@@ -9,12 +9,14 @@ Both backends return the same columns (`stats.finalize`), one (n,) array each.
   `lax.map` runs the vmap in blocks of 64: wider Newton vmaps hung in jaxlib's
   batched Cholesky there.
 - `MujocoBackend`: `mujoco.batch.Batch` on all CPU threads; per-variant model
-  fields through `expand()`; the same statistics reduced with numpy each step.
+  fields through `expand()`; `Batch.rollout` steps a block of 100 steps while a
+  worker thread folds the previous block into the same statistics (numpy).
 """
 
 from __future__ import annotations
 
 import os
+import time
 from typing import Any
 
 import jax
@@ -106,8 +108,6 @@ class MjxBackend:
             fn = jax.jit(run)
         else:
             fn = jax.jit(jax.vmap(one, in_axes=(axes, 0)))
-        import time
-
         t0 = time.perf_counter()
         with jax.default_matmul_precision(self.matmul_precision):
             compiled = fn.lower(mx, params).compile()

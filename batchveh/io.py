@@ -80,6 +80,15 @@ def write_part(frame: pd.DataFrame, path: Path, param_units: dict[str, str], met
     os.replace(tmp, path)
 
 
+FIGURES = ("envelope.png", "heatmap.png", "steering.png")
+
+
+def remove_results(out: Path) -> None:
+    """Delete the files a sweep writes in `out` (parts, temporaries, manifest, figures), nothing else."""
+    for f in [*parts(out), *out.glob(".part-*.tmp"), out / MANIFEST, *(out / name for name in FIGURES)]:
+        f.unlink(missing_ok=True)
+
+
 def parts(out: Path) -> list[Path]:
     return sorted(out.glob("part-*.parquet"))
 

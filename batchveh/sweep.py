@@ -13,7 +13,6 @@ from __future__ import annotations
 import argparse
 import json
 import platform
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -113,7 +112,7 @@ def run_sweep(
     if (existing or (out / io.MANIFEST).exists()) and not resume:
         if not overwrite:
             raise FileExistsError(f"{out} holds results; give --resume to continue or --overwrite to replace them")
-        shutil.rmtree(out)
+        io.remove_results(out)  # only what a sweep writes: never the folder's other files
         existing = []
     if resume and (out / io.MANIFEST).exists():
         old = json.loads((out / io.MANIFEST).read_text())

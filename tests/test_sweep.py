@@ -147,7 +147,9 @@ def test_existing_results_are_never_overwritten_silently(tmp_path, capsys):
     assert main([str(path), "--backend", "mujoco", "--quiet"]) == 0
     assert main([str(path), "--backend", "mujoco", "--quiet"]) == 3
     assert "--overwrite" in capsys.readouterr().err
+    (tmp_path / "s" / "notes.txt").write_text("the user's own file")
     assert main([str(path), "--backend", "mujoco", "--quiet", "--overwrite"]) == 0
+    assert (tmp_path / "s" / "notes.txt").read_text() == "the user's own file"  # only results are replaced
 
 
 def test_resume_after_kill_equals_uninterrupted(tmp_path):
