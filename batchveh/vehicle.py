@@ -60,6 +60,10 @@ class Wheel:
     mass: float = field(3.0, unit="kg", gt=0)
     x_cg: float = field(0.5, unit="m", gt=0)
     y_cg: float = field(0.4, unit="m", gt=0)
+    # contact shape: 'cylinder' (the seed's; MJX makes 3 contacts per wheel) or 'sphere'
+    # (one contact per wheel, same mass and inertia; no contact width, so no scrub torque
+    # from the width: faster on a GPU, for drive torques on straight paths)
+    collision: Literal["cylinder", "sphere"] = "cylinder"
 
 
 @dataclass(frozen=True)
@@ -183,6 +187,20 @@ def mjcf(
     # (1 & 1) but not another wheel (1 & 2 = 0) unless v.contacts is "all".
     wheel_aff = 2 if v.contacts == "ground" else 3
     hub_type, hub_aff = (0, 0) if v.contacts == "ground" else (1, 3)
+
+    def wheel_geoms(name: str) -> str:
+        cyl = f'type="cylinder" size="{_fmt(w.radius, w.width / 2)}" zaxis="0 1 0" mass="{w.mass:.10g}"'
+        if w.collision == "cylinder":
+            return (
+                f'<geom name="wheel_{name}" {cyl} contype="1" conaffinity="{wheel_aff}" friction="1 0 0" '
+                'rgba=".1 .1 .1 1"/>'
+            )
+        return (
+            f'<geom name="wheel_{name}_body" {cyl} contype="0" conaffinity="0" rgba=".1 .1 .1 1"/>'
+            f'<geom name="wheel_{name}" type="sphere" size="{w.radius:.10g}" mass="0" contype="1" '
+            f'conaffinity="{wheel_aff}" friction="1 0 0" rgba="0 0 0 0"/>'
+        )
+
     bodies = []
     for name in CORNERS:
         sx, sy = CORNER_SIGNS[name]
@@ -197,9 +215,7 @@ def mjcf(
               contype="{hub_type}" conaffinity="{hub_aff}" rgba=".55 .55 .6 1"/>
         <body name="wheel_{name}" pos="{_fmt(wheel_local[0], wheel_local[1], 0)}">
           <joint name="drive_{name}" type="hinge" axis="0 1 0" armature="{mo.armature:.10g}"/>
-          <geom name="wheel_{name}" type="cylinder" size="{_fmt(w.radius, w.width / 2)}" zaxis="0 1 0"
-                mass="{w.mass:.10g}" contype="1" conaffinity="{wheel_aff}" friction="1 0 0"
-                rgba=".1 .1 .1 1"/>
+          {wheel_geoms(name)}
         </body>
       </body>""")
     act = []

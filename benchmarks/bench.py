@@ -39,11 +39,18 @@ SOLVERS = {  # name -> (solver, iterations, ls_iterations)
 }
 
 
+WHEEL_COLLISION = "cylinder"  # --wheel-collision
+
+
 def slope_table(n: int, seed: int = 0):
-    """n variants drawn (fixed seed) from sweeps/slope.yaml's grid."""
+    """n variants drawn (fixed seed) from sweeps/slope.yaml's grid, on the chosen wheel collision shape."""
+    import dataclasses
+
     from batchveh.spec import load_spec, variants
 
     spec = load_spec(Path(__file__).resolve().parent.parent / "sweeps" / "slope.yaml")
+    wheel = dataclasses.replace(spec.vehicle.wheel, collision=WHEEL_COLLISION)
+    spec = dataclasses.replace(spec, vehicle=dataclasses.replace(spec.vehicle, wheel=wheel))
     grid = variants(spec)
     idx = np.random.default_rng(seed).choice(len(grid), size=n, replace=n > len(grid))
     return spec, grid.iloc[idx].drop(columns="variant").reset_index(drop=True)
@@ -179,7 +186,10 @@ def main():
         choices=["default", "high", "highest"],
         help="JAX matmul precisions to compare for mjx (GPU float32 'default' may use TF32)",
     )
+    ap.add_argument("--wheel-collision", default="cylinder", choices=["cylinder", "sphere"])
     args = ap.parse_args()
+    global WHEEL_COLLISION
+    WHEEL_COLLISION = args.wheel_collision
     import jax
     import mujoco
 
@@ -199,6 +209,7 @@ def main():
         "command": " ".join(sys.argv),
         "steps": n_steps,
         "time_step": spec.scenario.time_step,
+        "wheel_collision": args.wheel_collision,
     }
 
     # the converged reference on a fixed sample

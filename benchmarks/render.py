@@ -17,7 +17,8 @@ def _err(a, k):
 def bench_table(d):
     i = d["info"]
     lines = [
-        f"### {i['device']}, {i['cpu_threads']} CPU threads ({i['date']})",
+        f"### {i['device']}, {i['cpu_threads']} CPU threads, {i.get('wheel_collision', 'cylinder')} wheel contacts "
+        f"({i['date']})",
         "",
         f"mujoco {i['mujoco']}, jax {i['jax']}, Python {i['python']}; {i['steps']} steps of "
         f"{i['time_step']} s per variant (sweeps/slope.yaml variants).",
@@ -85,7 +86,8 @@ def main():
             d = json.loads(f.read_text())
             total = d["rows"][-1]["ms"]
             out += [
-                f"**{d['solver']}** on {d['device']}: one step {total:.2f} ms "
+                f"**{d['solver']}**, {d.get('wheel_collision', 'cylinder')} wheels, on {d['device']}: "
+                f"one step {total:.2f} ms "
                 f"({d['n'] / total * 1e3:.3g} variant-steps/s)",
                 "",
                 "| stage | cumulative ms | delta ms | share |",

@@ -22,7 +22,11 @@ def main():
     ap.add_argument("--n", type=int, default=65536)
     ap.add_argument("--solver", default="newton8")
     ap.add_argument("--out", default=None, help="JSON file for the rows")
+    ap.add_argument("--wheel-collision", default="cylinder", choices=["cylinder", "sphere"])
     args = ap.parse_args()
+    import bench
+
+    bench.WHEEL_COLLISION = args.wheel_collision
     import jax
     import jax.numpy as jnp
     from bench import _cols, set_solver, slope_table
@@ -95,7 +99,14 @@ def main():
     if args.out:
         Path(args.out).write_text(
             json.dumps(
-                {"n": args.n, "solver": args.solver, "device": jax.devices()[0].device_kind, "rows": rows}, indent=1
+                {
+                    "n": args.n,
+                    "solver": args.solver,
+                    "device": jax.devices()[0].device_kind,
+                    "wheel_collision": args.wheel_collision,
+                    "rows": rows,
+                },
+                indent=1,
             )
         )
 

@@ -158,3 +158,16 @@ def test_only_wheels_touch_the_ground_unless_asked(vehicle):
     assert not _may_touch(m, "hub_lf", "ground") and not _may_touch(m, "chassis", "ground")
     everything = build_model(dataclasses.replace(vehicle, contacts="all"))
     assert _may_touch(everything, "wheel_lf", "wheel_rf") and _may_touch(everything, "hub_lf", "ground")
+
+
+def test_sphere_wheel_contacts_keep_the_slope_physics(vehicle):
+    """wheel.collision: sphere (one contact per wheel, for GPU speed) keeps mass, inertia and the slope sum."""
+    from batchveh.vehicle import build_model
+
+    sphere = dataclasses.replace(vehicle, wheel=dataclasses.replace(vehicle.wheel, collision="sphere"))
+    a, b = build_model(vehicle), build_model(sphere)
+    np.testing.assert_allclose(b.body_subtreemass[1], a.body_subtreemass[1])
+    np.testing.assert_allclose(b.body_inertia, a.body_inertia)
+    s = simulate(sphere, straight(15)).stats
+    np.testing.assert_allclose(s["drive_sum_mean"], slope_torque(vehicle, 15), rtol=SUM_RTOL)
+    assert not s["slipping"] and s["speed_track_err"] < SPEED_TRACK_RTOL
