@@ -21,6 +21,14 @@ class ConfigError(ValueError):
     """A bad configuration: one line naming file, key, value and what is allowed."""
 
 
+def did_you_mean(name: Any, choices: Any) -> str:
+    """' (did you mean 'x'?)' for the closest of `choices`, or ''."""
+    import difflib
+
+    close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
+    return f" (did you mean {close[0]!r}?)" if close else ""
+
+
 def load_yaml(path: str | Path) -> dict[str, Any]:
     """Read a YAML mapping from `path`, with errors as one-line `ConfigError`s."""
     path = Path(path)
@@ -140,7 +148,10 @@ def from_mapping(cls: type, data: dict[str, Any], where: str) -> Any:
     sep = ": " if ":" not in where else "."
     unknown = [k for k in data if k not in fields]
     if unknown:
-        raise ConfigError(f"{where}{sep}{unknown[0]}: unknown key {unknown[0]!r}; allowed keys: {', '.join(fields)}")
+        raise ConfigError(
+            f"{where}{sep}{unknown[0]}: unknown key {unknown[0]!r}{did_you_mean(unknown[0], fields)}; "
+            f"allowed keys: {', '.join(fields)}"
+        )
     kwargs = {}
     for name, value in data.items():
         kwargs[name] = _convert(value, hints[name], dict(fields[name].metadata), f"{where}{sep}{name}")

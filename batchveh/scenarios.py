@@ -21,7 +21,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from batchveh import laws
-from batchveh.config import ConfigError, field, from_mapping, load_yaml
+from batchveh.config import ConfigError, did_you_mean, field, from_mapping, load_yaml
 from batchveh.vehicle import CORNER_SIGNS, CORNERS, MOTORS
 
 GRAVITY_PRESETS = {"earth": 9.81, "moon": 1.62, "mars": 3.71}
@@ -51,7 +51,10 @@ class Scenario:
     def validate(self, where: str = "scenario") -> None:
         """Raise ConfigError for an unknown kind or inconsistent fields."""
         if self.kind not in SCENARIOS:
-            raise ConfigError(f"{where}: scenario {self.kind!r} is not known; known: {', '.join(SCENARIOS)}")
+            raise ConfigError(
+                f"{where}: scenario {self.kind!r} is not known{did_you_mean(self.kind, SCENARIOS)}; "
+                f"known: {', '.join(SCENARIOS)}"
+            )
         if self.drive_law not in ("ramp", "unbounded_ramp", "smooth_step"):
             raise ConfigError(
                 f"{where}.drive_law: {self.drive_law!r} is not allowed; allowed: ramp, unbounded_ramp, smooth_step"
@@ -227,7 +230,9 @@ def controls_fn(sc: Scenario) -> Callable[[Mapping[str, Any], Any], Any]:
 def make_scenario(kind: str = "straight_line", **overrides: Any) -> Scenario:
     """A registered scenario with its own defaults, then `overrides`."""
     if kind not in SCENARIOS:
-        raise ConfigError(f"scenario {kind!r} is not known; known: {', '.join(SCENARIOS)}")
+        raise ConfigError(
+            f"scenario {kind!r} is not known{did_you_mean(kind, SCENARIOS)}; known: {', '.join(SCENARIOS)}"
+        )
     sc = Scenario(kind=kind, **{**SCENARIOS[kind][1], **overrides})
     sc.validate()
     return sc
@@ -238,7 +243,9 @@ def scenario_from_mapping(data: Mapping[str, Any], where: str) -> Scenario:
     data = dict(data)
     kind = data.pop("kind", data.pop("name", "straight_line"))
     if kind not in SCENARIOS:
-        raise ConfigError(f"{where}: scenario {kind!r} is not known; known: {', '.join(SCENARIOS)}")
+        raise ConfigError(
+            f"{where}: scenario {kind!r} is not known{did_you_mean(kind, SCENARIOS)}; known: {', '.join(SCENARIOS)}"
+        )
     if isinstance(data.get("gravity"), str):
         g = data["gravity"].lower()
         if g not in GRAVITY_PRESETS:
@@ -257,4 +264,7 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
         return make_scenario(s)
     if s.endswith((".yaml", ".yml")) or Path(s).exists():
         return scenario_from_mapping(load_yaml(s), s)
-    raise ConfigError(f"scenario {s!r} is neither a known scenario nor a YAML file; known: {', '.join(SCENARIOS)}")
+    raise ConfigError(
+        f"scenario {s!r} is neither a known scenario nor a YAML file{did_you_mean(s, SCENARIOS)}; "
+        f"known: {', '.join(SCENARIOS)}"
+    )

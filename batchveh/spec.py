@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from batchveh.config import ConfigError, check_number, load_yaml
+from batchveh.config import ConfigError, check_number, did_you_mean, load_yaml
 from batchveh.scenarios import Scenario, load_scenario, scenario_from_mapping
 from batchveh.variants import STATIC, parameter_specs
 from batchveh.vehicle import Vehicle, load_vehicle, vehicle_from_mapping
@@ -98,7 +98,9 @@ def load_spec(path: str | Path) -> SweepSpec:
 def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
     for k in raw:
         if k not in TOP_KEYS:
-            raise ConfigError(f"{where}: {k}: unknown key {k!r}; allowed keys: {', '.join(TOP_KEYS)}")
+            raise ConfigError(
+                f"{where}: {k}: unknown key {k!r}{did_you_mean(k, TOP_KEYS)}; allowed keys: {', '.join(TOP_KEYS)}"
+            )
     name = raw.get("name")
     if not isinstance(name, str) or not name:
         raise ConfigError(f"{where}: name: {name!r} is not allowed; allowed: a non-empty string")
@@ -126,7 +128,9 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
 
     def param_meta(key: str, at: str) -> dict:
         if key not in specs:
-            raise ConfigError(f"{where}: {at}.{key}: unknown parameter {key!r}; allowed: {', '.join(specs)}")
+            raise ConfigError(
+                f"{where}: {at}.{key}: unknown parameter {key!r}{did_you_mean(key, specs)}; allowed: {', '.join(specs)}"
+            )
         return specs[key]
 
     fixed_raw = raw.get("fixed") or {}

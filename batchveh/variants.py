@@ -26,7 +26,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from batchveh.config import ConfigError
+from batchveh.config import ConfigError, did_you_mean
 from batchveh.scenarios import Scenario, gravity_vector, numeric_fields
 from batchveh.vehicle import Vehicle, build_model, layout, numeric_paths, replace_path
 
@@ -107,7 +107,7 @@ def make_batch(vehicle: Vehicle, scenario: Scenario, table: Mapping[str, Any]) -
     specs = parameter_specs(vehicle)
     for name in table:
         if name not in specs:
-            raise ConfigError(f"unknown parameter {name!r}; allowed: {', '.join(specs)}")
+            raise ConfigError(f"unknown parameter {name!r}{did_you_mean(name, specs)}; allowed: {', '.join(specs)}")
     lengths = {len(np.atleast_1d(v)) for v in table.values()}
     if len(lengths) > 1:
         raise ConfigError(f"parameter columns have different lengths: {sorted(lengths)}")

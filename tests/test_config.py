@@ -60,6 +60,8 @@ def test_missing_files_and_unknown_names(tmp_path, capsys):
     assert code == 2 and "nope.yaml: file not found" in err
     code, err = _err(capsys, ["zigzag"])
     assert code == 2 and "known: manual, straight_line, steer_in_place, towing" in err
+    code, err = _err(capsys, ["straight_lne"])
+    assert code == 2 and "did you mean 'straight_line'?" in err
 
 
 def test_cli_bad_input_prints_no_traceback(tmp_path):

@@ -189,13 +189,13 @@ def test_resume_after_kill_equals_uninterrupted(tmp_path):
     "edit, expect",
     [
         (
-            {"sweep": {"method": "grid", "params": {"slope": [1]}}},
-            ["sweep.params.slope", "unknown parameter", "slope_deg"],
+            {"sweep": {"method": "grid", "params": {"slope_dge": [1]}}},
+            ["sweep.params.slope_dge", "unknown parameter", "did you mean 'slope_deg'?"],
         ),
         ({"sweep": {"method": "sobol", "params": {"slope_deg": [1]}}}, ["sweep.method", "'sobol'", "grid, random"]),
         ({"fixed": {"friction": -1}}, ["fixed.friction", "-1", "> 0"]),
         ({"sweep": {"method": "grid", "params": {"friction": "high"}}}, ["sweep.params.friction", "'high'"]),
-        ({"outptu": "x"}, ["outptu", "allowed keys"]),
+        ({"outptu": "x"}, ["outptu", "did you mean 'output'?", "allowed keys"]),
         ({"sweep": {"method": "random", "params": {"friction": {"low": 0.1, "high": 1}}}}, ["sweep.n"]),
         ({"scenario": "drift"}, ["scenario", "'drift'", "known:"]),
         ({"sweep": {"method": "grid", "params": {"time_step": [0.005, 0.0025]}}}, ["time_step", "cannot vary"]),
