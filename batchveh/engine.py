@@ -24,7 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from batchveh import stats
-from batchveh.scenarios import Scenario, controls_fn
+from batchveh.scenarios import Scenario, control_schedule
 from batchveh.variants import VariantBatch
 from batchveh.vehicle import layout
 
@@ -148,9 +148,8 @@ class MujocoBackend:
     def __init__(self, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int, nthread: int = 0):
         self.scenario, self.cfg, self.chunk_size = scenario, cfg, chunk_size
         self.nthread = nthread or os.cpu_count() or 1
-        ctrl = controls_fn(scenario)
-        # controls for a block of steps for every variant, evaluated by JAX in float64-free numpy
-        self._ctrl = jax.jit(jax.vmap(jax.vmap(ctrl, in_axes=(None, 0)), in_axes=(0, None)))
+        # controls (n, block, nu) for a block of steps of every variant, computed by JAX
+        self._ctrl = jax.jit(jax.vmap(control_schedule(scenario), in_axes=(0, None)))
 
     def run(self, batch: VariantBatch, block: int = 100) -> dict[str, np.ndarray]:
         """Step the chunk in blocks; while MuJoCo steps block k+1 on all threads, a worker
@@ -175,16 +174,7 @@ class MujocoBackend:
             return steps, np.asarray(self._ctrl(params, jnp.asarray(steps * dt)), np.float64)
 
         def fold(acc, rec, steps, ctrls, failed):
-            qpos, qvel, qfrc = rec["qpos"], rec["qvel"], rec["qfrc_actuator"]
-            sample = {
-                "tau": qfrc[..., lay.motor_dof],
-                "omega": qvel[..., lay.motor_dof[:4]],
-                "alpha": qpos[..., lay.motor_qpos[4:]],
-                "ref": ctrls[..., :8],
-                "pos": qpos[..., 0:3],
-                "quat": qpos[..., 3:7],
-                "vel": qvel[..., 0:3],
-            }
+            sample = stats.sample(rec["qpos"], rec["qvel"], rec["qfrc_actuator"], ctrls, lay)
             if failed.any():
                 sample["tau"] = np.where(failed[:, None, None], np.nan, sample["tau"])
             return stats.update(acc, sample, steps, self.cfg)

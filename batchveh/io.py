@@ -103,15 +103,19 @@ def load(path: str | Path) -> pd.DataFrame:
     return frame.sort_values("variant").reset_index(drop=True) if "variant" in frame else frame
 
 
+def _first_file(path: str | Path) -> Path:
+    """A result's first part file (its schema and metadata stand for all), or the file itself."""
+    path = Path(path)
+    return parts(path)[0] if path.is_dir() else path
+
+
 def metadata(path: str | Path) -> dict[str, Any]:
     """The batchveh file metadata of a result (spec, versions, device, timings)."""
-    path = Path(path)
-    f = parts(path)[0] if path.is_dir() else path
+    f = _first_file(path)
     return json.loads(pq.read_schema(f).metadata[b"batchveh"])
 
 
 def units(path: str | Path) -> dict[str, str]:
     """Column name -> unit, from the Arrow field metadata."""
-    path = Path(path)
-    f = parts(path)[0] if path.is_dir() else path
+    f = _first_file(path)
     return {fl.name: fl.metadata[b"unit"].decode() for fl in pq.read_schema(f)}

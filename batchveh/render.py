@@ -21,7 +21,7 @@ import mujoco  # noqa: E402  (batchveh/__init__ chose MUJOCO_GL before this impo
 import numpy as np
 
 from batchveh.config import ConfigError  # noqa: E402
-from batchveh.scenarios import Scenario, controls_fn, load_scenario  # noqa: E402
+from batchveh.scenarios import Scenario, control_schedule, load_scenario  # noqa: E402
 from batchveh.variants import make_batch  # noqa: E402
 from batchveh.vehicle import Vehicle, load_vehicle  # noqa: E402
 
@@ -44,7 +44,6 @@ def frames(
     max_frames: int | None = None,
 ) -> list[np.ndarray]:
     """Simulate on MuJoCo C and return RGB frames (height, width, 3), uint8, at `fps` per simulated second."""
-    import jax
     import jax.numpy as jnp
 
     batch = make_batch(vehicle, scenario, {})
@@ -52,8 +51,7 @@ def frames(
     d = mujoco.MjData(m)
     params = {k: jnp.asarray(v[0]) for k, v in batch.params.items()}
     dt = m.opt.timestep
-    times = np.arange(scenario.n_steps) * dt
-    ctrls = np.asarray(jax.vmap(lambda t: controls_fn(scenario)(params, t))(jnp.asarray(times)), np.float64)
+    ctrls = np.asarray(control_schedule(scenario)(params, jnp.asarray(np.arange(scenario.n_steps) * dt)), np.float64)
     every = max(1, int(round(1.0 / (fps * dt))))
     out = []
     renderer = mujoco.Renderer(m, height, width)

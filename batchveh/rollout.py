@@ -21,22 +21,9 @@ import numpy as np
 from mujoco import mjx
 
 from batchveh import stats
-from batchveh.scenarios import Scenario, controls_fn
+from batchveh.scenarios import Scenario, control_schedule, controls_fn
 from batchveh.variants import VariantBatch
 from batchveh.vehicle import Layout, layout
-
-
-def _sample(qpos, qvel, qfrc_actuator, ctrl, lay: Layout) -> dict[str, Any]:
-    drive_dof = lay.motor_dof[:4]
-    return {
-        "tau": qfrc_actuator[..., lay.motor_dof],
-        "omega": qvel[..., drive_dof],
-        "alpha": qpos[..., lay.motor_qpos[4:]],
-        "ref": ctrl[..., :8],
-        "pos": qpos[..., 0:3],
-        "quat": qpos[..., 3:7],
-        "vel": qvel[..., 0:3],
-    }
 
 
 def put_batch(batch: VariantBatch) -> tuple[mjx.Model, mjx.Model]:
@@ -67,7 +54,7 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, n_ste
         d, acc = carry
         ctrl = ctrl_fn(params, i * dt).astype(d.ctrl.dtype)
         d = mjx.step(model, d.replace(ctrl=ctrl))
-        s = _sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, lay)
+        s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, lay)
         return body_out(d, acc, s, i)
 
     return body
@@ -108,15 +95,14 @@ def mujoco_series(
     """Per-step samples from MuJoCo C (float64), the reference for MJX."""
     lay = layout(m)
     d = mujoco.MjData(m)
-    ctrl_fn = jax.jit(controls_fn(scenario))
     p = {k: jnp.asarray(v) for k, v in params.items()}
-    times = np.arange(n_steps) * m.opt.timestep
-    ctrls = np.asarray(jax.vmap(lambda t: ctrl_fn(p, t))(jnp.asarray(times)), dtype=np.float64)
+    times = jnp.asarray(np.arange(n_steps) * m.opt.timestep)
+    ctrls = np.asarray(jax.jit(control_schedule(scenario))(p, times), dtype=np.float64)
     rows = []
     for i in range(n_steps):
         d.ctrl[:] = ctrls[i]
         mujoco.mj_step(m, d)
-        rows.append(_sample(d.qpos.copy(), d.qvel.copy(), d.qfrc_actuator.copy(), ctrls[i], lay))
+        rows.append(stats.sample(d.qpos.copy(), d.qvel.copy(), d.qfrc_actuator.copy(), ctrls[i], lay))
     return {k: np.stack([r[k] for r in rows]) for k in rows[0]}
 
 

@@ -227,6 +227,14 @@ def controls_fn(sc: Scenario) -> Callable[[Mapping[str, Any], Any], Any]:
     return ctrl
 
 
+def control_schedule(sc: Scenario) -> Callable[[Mapping[str, Any], Any], Any]:
+    """f(p, times) -> ctrl (len(times), 16) for one variant: `controls_fn` over a time array.
+
+    vmap it once more over `p` for many variants; jit it where it is called repeatedly.
+    """
+    return jax.vmap(controls_fn(sc), in_axes=(None, 0))
+
+
 def make_scenario(kind: str = "straight_line", **overrides: Any) -> Scenario:
     """A registered scenario with its own defaults, then `overrides`."""
     if kind not in SCENARIOS:

@@ -74,6 +74,22 @@ class StatsConfig:
         return max(1, math.ceil(self.window_steps / self.stride))
 
 
+def sample(qpos, qvel, qfrc_actuator, ctrl, lay) -> dict[str, Any]:
+    """The quantities `update` folds, read from MuJoCo state arrays of any leading shape.
+
+    qpos, qvel, qfrc_actuator: (..., nq / nv); ctrl: (..., nu); lay: the vehicle's Layout.
+    """
+    return {
+        "tau": qfrc_actuator[..., lay.motor_dof],
+        "omega": qvel[..., lay.motor_dof[:4]],
+        "alpha": qpos[..., lay.motor_qpos[4:]],
+        "ref": ctrl[..., :8],
+        "pos": qpos[..., 0:3],
+        "quat": qpos[..., 3:7],
+        "vel": qvel[..., 0:3],
+    }
+
+
 def init(cfg: StatsConfig, batch: tuple[int, ...], xp=np, dtype=None) -> dict[str, Any]:
     """Empty carry for `batch` leading dims."""
     dtype = dtype or xp.float64

@@ -194,7 +194,9 @@ def dry_run(spec: SweepSpec, limit: int | None, backend: str) -> str:
     """Variant count and a rough memory and time estimate, without simulating."""
     from batchveh.engine import resolve_backend
 
-    n = len(variants(spec)) if limit is None else min(limit, len(variants(spec)))
+    n = len(variants(spec))
+    if limit is not None:
+        n = min(limit, n)
     backend = resolve_backend(backend)
     steps = spec.scenario.n_steps
     # variant-steps/s measured here: mujoco.batch on 2 CPU threads ~1e5; MJX on one H100/H200 is higher

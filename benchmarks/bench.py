@@ -63,13 +63,19 @@ def _cols(table, spec):
 
 
 def set_solver(m, name: str, tolerance: float | None = None):
-    import mujoco
+    """The named SOLVERS setting (and a tolerance, for the reference) through batchveh's own setter."""
+    from batchveh.variants import apply_solver
 
     solver, it, ls = SOLVERS[name]
-    m.opt.solver = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG}[solver]
-    m.opt.iterations, m.opt.ls_iterations = it, ls
-    if tolerance is not None:
-        m.opt.tolerance = tolerance
+    apply_solver(
+        m,
+        {
+            "type": solver,
+            "iterations": it,
+            "ls_iterations": ls,
+            **({} if tolerance is None else {"tolerance": tolerance}),
+        },
+    )
 
 
 def bench_serial(spec, table, n_steps):
