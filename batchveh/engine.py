@@ -65,12 +65,21 @@ class MjxBackend:
 
     name = "mjx"
 
-    def __init__(self, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int, matmul_precision: str = "highest"):
+    def __init__(
+        self,
+        scenario: Scenario,
+        cfg: stats.StatsConfig,
+        chunk_size: int,
+        matmul_precision: str = "highest",
+        solver_impl: str = "auto",
+    ):
         self.scenario, self.cfg = scenario, cfg
         # 'highest': true float32 products; JAX's GPU default may use reduced-precision (TF32) units
         self.matmul_precision = matmul_precision
         self.devices = jax.devices()
         self.on_cpu = self.devices[0].platform == "cpu"
+        # the fused solver pays on accelerators; on the CPU MJX's own is faster and compiles sooner
+        self.fused = solver_impl == "fused" or (solver_impl == "auto" and not self.on_cpu)
         nd = len(self.devices)
         self.chunk_size = max(nd, (chunk_size // nd) * nd)
         self._fn: dict[Any, Any] = {}
@@ -83,6 +92,7 @@ class MjxBackend:
 
     def _compiled(self, batch: VariantBatch, mx, axes, params):
         from batchveh.rollout import mjx_stats
+        from batchveh.solver import fused_solver
 
         key = (tuple(sorted(batch.fields)), batch.n)
         if key in self._fn:
@@ -109,7 +119,7 @@ class MjxBackend:
         else:
             fn = jax.jit(jax.vmap(one, in_axes=(axes, 0)))
         t0 = time.perf_counter()
-        with jax.default_matmul_precision(self.matmul_precision):
+        with jax.default_matmul_precision(self.matmul_precision), fused_solver(self.fused):
             compiled = fn.lower(mx, params).compile()
         self.compile_s += time.perf_counter() - t0
         self._fn[key] = compiled
@@ -199,8 +209,8 @@ class MujocoBackend:
         return stats.finalize(acc, self.cfg)
 
 
-GPU_CHUNK_MAX = 65536  # throughput is flat beyond this on one H200 (benchmarks/RESULTS.md)
-GPU_BYTES_PER_VARIANT = 16e3  # measured peak device memory per variant (0.53 GB at 32768)
+GPU_CHUNK_MAX = 131072  # fused solver: 131k ran 8-11% faster than 65k on one H200 (benchmarks/RESULTS.md)
+GPU_BYTES_PER_VARIANT = 19e3  # measured peak device memory per variant (2.47 GB at 131072)
 
 
 def auto_chunk(name: str, n_variants: int | None) -> int:
@@ -228,9 +238,12 @@ def make_backend(
     chunk_size: int | None,
     n_variants: int | None = None,
     matmul_precision: str = "highest",
+    solver_impl: str = "auto",
 ):
-    """Build the named backend ('mjx' or 'mujoco'); chunk size automatic unless given."""
+    """Build the named backend ('mjx' or 'mujoco'); chunk size automatic unless given.
+
+    solver_impl (mjx): 'fused' (batchveh.solver), 'mjx' (MJX's own), 'auto' (fused on a GPU)."""
     chunk = chunk_size or auto_chunk(name, n_variants)
     if name == "mjx":
-        return MjxBackend(scenario, cfg, chunk, matmul_precision)
+        return MjxBackend(scenario, cfg, chunk, matmul_precision, solver_impl)
     return MujocoBackend(scenario, cfg, chunk)

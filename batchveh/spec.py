@@ -48,7 +48,13 @@ TOP_KEYS = (
     "precision",
     "solver",
 )
-SOLVER_KEYS = {"type": ("newton", "cg"), "iterations": int, "ls_iterations": int, "tolerance": float}
+SOLVER_KEYS = {
+    "type": ("newton", "cg"),
+    "iterations": int,
+    "ls_iterations": int,
+    "tolerance": float,
+    "impl": ("auto", "fused", "mjx"),  # MJX backend: batchveh.solver's fused Newton or MJX's own
+}
 
 
 @dataclass(frozen=True)

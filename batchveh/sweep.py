@@ -99,7 +99,14 @@ def run_sweep(
         sc.time_step, sc.n_steps, spec.window, wheel_radius=spec.vehicle.wheel.radius, lowpass_s=spec.lowpass_s
     )
     enable_compile_cache()
-    engine = make_backend(backend, sc, cfg, chunk_size or spec.chunk_size, n_variants=len(table))
+    engine = make_backend(
+        backend,
+        sc,
+        cfg,
+        chunk_size or spec.chunk_size,
+        n_variants=len(table),
+        solver_impl=spec.solver.get("impl", "auto"),
+    )
     chunk = engine.chunk_size
     manifest = {
         "spec": spec.raw,
@@ -107,6 +114,7 @@ def run_sweep(
         "chunk_size": chunk,
         "backend": backend,
         "precision": spec.precision,
+        "solver_impl": "fused" if getattr(engine, "fused", False) else backend,
     }
     existing = io.parts(out) if out.exists() else []
     if (existing or (out / io.MANIFEST).exists()) and not resume:

@@ -84,7 +84,9 @@ def _gains(m, lay, p: Mapping[str, Any], towing) -> tuple[np.ndarray, np.ndarray
 
 
 def apply_solver(m: mujoco.MjModel, solver: Mapping[str, Any]) -> None:
-    """Set MuJoCo solver options (type newton|cg, iterations, ls_iterations, tolerance) on `m`."""
+    """Set MuJoCo solver options (type newton|cg, iterations, ls_iterations, tolerance) on `m`.
+
+    ('impl' chooses the MJX backend's solver code and is not a model option.)"""
     if "type" in solver:
         m.opt.solver = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG}[solver["type"]]
     for key in ("iterations", "ls_iterations", "tolerance"):

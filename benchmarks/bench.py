@@ -36,6 +36,12 @@ SOLVERS = {  # name -> (solver, iterations, ls_iterations)
     "newton8ls4": ("newton", 8, 4),
     "newton6ls6": ("newton", 6, 6),
     "newton6ls4": ("newton", 6, 4),
+    "newton5ls4": ("newton", 5, 4),
+    "newton5ls3": ("newton", 5, 3),
+    "newton4ls4": ("newton", 4, 4),
+    "newton3ls4": ("newton", 3, 4),
+    "newton2ls4": ("newton", 2, 4),
+    "newton4ls2": ("newton", 4, 2),
 }
 
 
@@ -117,7 +123,7 @@ def bench_raw_batch(spec, table, n_steps):
     return batch.n * n_steps / (time.perf_counter() - t0), b.nthread
 
 
-def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="highest"):
+def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="highest", impl="auto"):
     """(columns, wall s, compile s, peak device bytes) of batchveh's backend on the table."""
     import jax
 
@@ -126,7 +132,7 @@ def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="h
 
     sc = spec.scenario
     cfg = stats.StatsConfig.make(sc.time_step, sc.n_steps, spec.window, wheel_radius=spec.vehicle.wheel.radius)
-    be = engine.make_backend(kind, sc, cfg, chunk, matmul_precision=matmul)
+    be = engine.make_backend(kind, sc, cfg, chunk, matmul_precision=matmul, solver_impl=impl)
     out, t_run = [], 0.0
     for start in range(0, len(table), be.chunk_size):
         batch = make_batch(spec.vehicle, sc, _cols(table.iloc[start : start + be.chunk_size], spec))
@@ -186,6 +192,13 @@ def main():
     ap.add_argument("--precisions", nargs="*", default=["f32"], choices=["f32", "f64"], help="mjx float precisions")
     ap.add_argument("--skip-cpu", action="store_true")
     ap.add_argument(
+        "--impls",
+        nargs="*",
+        default=["auto"],
+        choices=["auto", "fused", "mjx"],
+        help="mjx constraint solver code: batchveh.solver's fused Newton, MJX's own, or auto (fused on GPU)",
+    )
+    ap.add_argument(
         "--matmul",
         nargs="*",
         default=["highest"],
@@ -237,15 +250,23 @@ def main():
         rows[-1]["accuracy"] = accuracy(cols_ref, ref)
         print(rows[-3:], flush=True)
 
-    for x64, solver, mm in [(p == "f64", s, mm) for p in args.precisions for s in args.solvers for mm in args.matmul]:
+    on_gpu = jax.devices()[0].platform != "cpu"
+    configs = [
+        (p == "f64", s, mm, "fused" if i == "auto" and on_gpu else "mjx" if i == "auto" else i)
+        for p in args.precisions
+        for s in args.solvers
+        for mm in args.matmul
+        for i in args.impls
+    ]
+    for x64, solver, mm, impl in configs:
         jax.config.update("jax_enable_x64", x64)
-        cols_acc, *_ = run_backend("mjx", spec, ref_table, args.ref_variants, solver, matmul=mm)
+        cols_acc, *_ = run_backend("mjx", spec, ref_table, args.ref_variants, solver, matmul=mm, impl=impl)
         acc = accuracy(cols_acc, ref)
-        label = f"batchveh mjx {solver} {'f64' if x64 else 'f32'}{'' if mm == 'highest' else ' mm=' + mm}"
+        label = f"batchveh mjx {solver} {impl} {'f64' if x64 else 'f32'}{'' if mm == 'highest' else ' mm=' + mm}"
         for size in args.mjx_sizes:
             _, table = slope_table(size, seed=3)
             try:
-                _, wall, comp, peak = run_backend("mjx", spec, table, size, solver, matmul=mm)
+                _, wall, comp, peak = run_backend("mjx", spec, table, size, solver, matmul=mm, impl=impl)
             except Exception as err:  # out of memory: record and go on
                 rows.append({"name": f"{label} n={size}", "error": str(err)[:200]})
                 continue
@@ -263,12 +284,12 @@ def main():
             r["sim_s_per_s"] = r["rate"] / n_steps * sim_s
             r["vs_raw_batch"] = r["rate"] / raw_rate if raw_rate else None
     print(
-        f"\n{'row':44s} {'var-steps/s':>11s} {'x raw':>6s} {'comp s':>6s} {'mem GB':>6s} | non-slipping, "
+        f"\n{'row':50s} {'var-steps/s':>11s} {'x raw':>6s} {'comp s':>6s} {'mem GB':>6s} | non-slipping, "
         "median/p99 rel. error: sum mean, wheel mean, wheel peak, wheel peak_lp"
     )
     for r in rows:
         if "rate" not in r:
-            print(f"{r['name']:48s} failed: {r['error']}")
+            print(f"{r['name']:50s} failed: {r['error']}")
             continue
         a = r.get("accuracy", {})
         ratio = f"{r['vs_raw_batch']:.2f}" if r.get("vs_raw_batch") else "-"
@@ -277,7 +298,7 @@ def main():
             for k in ("noslip_sum_mean", "noslip_wheel_mean", "noslip_wheel_peak", "noslip_wheel_peak_lp")
         )
         print(
-            f"{r['name']:44s} {r['rate']:11.3g} {ratio:>6s} {r.get('compile_s', 0):6.1f} "
+            f"{r['name']:50s} {r['rate']:11.3g} {ratio:>6s} {r.get('compile_s', 0):6.1f} "
             f"{r.get('peak_mem_gb', 0):6.2f} | {errs}"
         )
     path = Path(__file__).resolve().parent / "results" / f"{tag}.json"
