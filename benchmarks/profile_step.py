@@ -163,7 +163,10 @@ def profile(m, axes, solver, args):
                     for _ in range(3):
                         jax.block_until_ready(f(m, data))
                     jax.profiler.stop_trace()
-                    row["kernels"] = kernel_table(tmp, top=0)
+                    kernels = kernel_table(tmp, top=0)
+                    row["kernels_per_step"] = sum(k["calls"] for k in kernels) // 3
+                    row["kernel_ms_per_step"] = sum(k["us"] for k in kernels) / 3e3
+                    row["kernels"] = kernels[:40]
             rows.append(row)
             rate = f"{row['rate']:.3g} variant-steps/s"
             head = f"{solver:12s} {mode:6s} {row['ms']:8.2f} ms/step  {rate}"

@@ -46,12 +46,40 @@ def bench_table(d):
 
 def scaling_table(files):
     rows = [json.loads(f.read_text().strip().splitlines()[-1]) for f in files]
-    lines = ["| GPUs | variants | solver | variant-steps/s | compile s |", "| ---: | ---: | --- | ---: | ---: |"]
-    for r in sorted(rows, key=lambda r: (r["devices"], r["variants"])):
+    lines = [
+        "| GPUs | variants | solver | solver code | variant-steps/s | compile s |",
+        "| ---: | ---: | --- | --- | ---: | ---: |",
+    ]
+    for r in sorted(rows, key=lambda r: (r.get("solver_impl", "mjx"), r["devices"], r["variants"])):
         lines.append(
-            f"| {r['devices']} x {r['kind']} | {r['variants']} | {r['solver']} | "
+            f"| {r['devices']} x {r['kind']} | {r['variants']} | {r['solver']} | {r.get('solver_impl', 'mjx')} | "
             f"{r['variant_steps_per_s']:.3g} | {r['compile_s']:.1f} |"
         )
+    return "\n".join(lines)
+
+
+def profile_section(d, name):
+    lines = [
+        f"`python benchmarks/profile_step.py` on {d['device']}, {d['n']} variants, one vmapped step from a settled "
+        f"state (best of 10); kernels from a JAX profiler trace of 3 steps (raw data: `benchmarks/results/{name}`).",
+        "",
+        "| solver | code | ms per step | variant-steps/s | compile s | kernels per step | kernel ms per step |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    for r in d["rows"]:
+        lines.append(
+            f"| {r['solver']} | {r['mode']} | {r['ms']:.2f} | {r['rate']:.3g} | {r.get('compile_s', 0):.1f} | "
+            f"{r.get('kernels_per_step', '-')} | {r.get('kernel_ms_per_step', 0):.2f} |"
+        )
+    for r in d["rows"]:
+        if r.get("kernels"):
+            lines += ["", f"Largest kernels, {r['solver']} / {r['mode']}:", "", "| kernel | ms per step | calls |"]
+            lines.append("| --- | ---: | ---: |")
+            lines += [f"| `{k['kernel'][:70]}` | {k['us'] / 3e3:.3f} | {k['calls'] // 3} |" for k in r["kernels"][:10]]
+    if d.get("hessians"):
+        lines += ["", "Formulations of J' diag(w) J (48 x 14 Jacobians), jit(vmap), best of 20:", ""]
+        lines += ["| formulation | ms | max rel. error |", "| --- | ---: | ---: |"]
+        lines += [f"| {h['hessian']} | {h['ms']:.3f} | {h['max_rel_err']:.1e} |" for h in d["hessians"]]
     return "\n".join(lines)
 
 
@@ -68,7 +96,7 @@ def main():
         "",
     ]
     for f in sorted((HERE / "results").glob("*.json")):
-        if "scaling" in f.name or "stages" in f.name:
+        if "scaling" in f.name or "stages" in f.name or "profile" in f.name:
             continue
         d = json.loads(f.read_text())
         out += [bench_table(d), "", f"(raw data: `benchmarks/results/{f.name}`)", ""]
@@ -98,12 +126,19 @@ def main():
                 for r in d["rows"]
             ]
             out.append("")
+    for f in sorted((HERE / "results").glob("*profile*.json")):
+        out += [
+            "## Kernel profile: MJX's solver against the fused one",
+            "",
+            profile_section(json.loads(f.read_text()), f.name),
+            "",
+        ]
     scaling = sorted((HERE / "results").glob("*scaling*.json"))
     if scaling:
         out += [
             "## Several GPUs of one host",
             "",
-            "`python benchmarks/scaling.py --n N --solver newton8`, "
+            "`python benchmarks/scaling.py --n N --solver S`, "
             "one GPU with CUDA_VISIBLE_DEVICES=0, then both; float32.",
             "",
             scaling_table(scaling),
