@@ -5,7 +5,8 @@ Both backends return the same columns (`stats.finalize`), one (n,) array each.
 - `MjxBackend`: one `jit(vmap(rollout))` per chunk shape; the model fields that
   vary are batched with an `in_axes` tree; time runs in `lax.scan` and the
   statistics live in its carry. A short last chunk is padded to the chunk shape
-  (no second compile). Variants are sharded over all local devices. On the CPU,
+  (no second compile). Variants are sharded over all local devices. On a GPU the
+  constraint solve is batchveh.solver's fused Newton solver (`solver.impl`). On the CPU,
   `lax.map` runs the vmap in blocks of 64: wider Newton vmaps hung in jaxlib's
   batched Cholesky there.
 - `MujocoBackend`: `mujoco.batch.Batch` on all CPU threads; per-variant model
