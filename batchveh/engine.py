@@ -149,6 +149,17 @@ class MjxBackend:
         return {k: np.asarray(v)[:n] for k, v in out.items()}
 
 
+def default_threads() -> int:
+    """MuJoCo threads for the C backend: every CPU but one on machines of 8 or more.
+
+    The fold and control threads need a core: with all 16 cores of a GPU host stepping, a
+    worker that shares its core with them straggles and the whole block waits. Alternated
+    with raw mujoco.batch (benchmarks/cpu_overhead.py, 16 cores): 16 threads 0.90x (median
+    of 4), 15 threads 1.02x. On 2 cores, 1 thread would halve the speed."""
+    n = os.cpu_count() or 1
+    return n - 1 if n >= 8 else n
+
+
 class MujocoBackend:
     """MuJoCo C through mujoco.batch.Batch on all CPU threads (float64)."""
 
@@ -158,13 +169,14 @@ class MujocoBackend:
 
     def __init__(self, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int, nthread: int = 0):
         self.scenario, self.cfg, self.chunk_size = scenario, cfg, chunk_size
-        self.nthread = nthread or os.cpu_count() or 1
+        self.nthread = nthread or default_threads()
         # controls (n, block, nu) for a block of steps of every variant, computed by JAX
         self._ctrl = jax.jit(jax.vmap(control_schedule(scenario), in_axes=(0, None)))
 
     def run(self, batch: VariantBatch, block: int = 100) -> dict[str, np.ndarray]:
-        """Step the chunk in blocks; while MuJoCo steps block k+1 on all threads, a worker
-        thread folds block k's records into the statistics (both release the GIL)."""
+        """Step the chunk in blocks; while MuJoCo steps block k on all threads, worker threads
+        fold block k-1's records into the statistics and compute block k+1's controls (all
+        release the GIL)."""
         from concurrent.futures import ThreadPoolExecutor
 
         from mujoco.batch import Batch, SimulationError
@@ -192,10 +204,15 @@ class MujocoBackend:
 
         acc = stats.init(self.cfg, (batch.n,))
         bufs = [None, None]
-        with ThreadPoolExecutor(1) as pool:
+        # two workers: one folds block k-1, the other computes block k+1's controls (JAX),
+        # both while MuJoCo steps block k
+        with ThreadPoolExecutor(2) as pool:
             pending = None
-            for k, start in enumerate(starts):
-                steps, ctrls = controls(start)
+            next_ctrls = pool.submit(controls, starts[0])
+            for k in range(len(starts)):
+                steps, ctrls = next_ctrls.result()
+                if k + 1 < len(starts):
+                    next_ctrls = pool.submit(controls, starts[k + 1])
                 if bufs[k % 2] is None or bufs[k % 2]["qpos"].shape[1] != len(steps):
                     bufs[k % 2] = {r: np.empty((batch.n, len(steps), n)) for r, n in sizes.items()}
                 try:
@@ -240,11 +257,13 @@ def make_backend(
     n_variants: int | None = None,
     matmul_precision: str = "highest",
     solver_impl: str = "auto",
+    nthread: int = 0,
 ):
     """Build the named backend ('mjx' or 'mujoco'); chunk size automatic unless given.
 
-    solver_impl (mjx): 'fused' (batchveh.solver), 'mjx' (MJX's own), 'auto' (fused on a GPU)."""
+    solver_impl (mjx): 'fused' (batchveh.solver), 'mjx' (MJX's own), 'auto' (fused on a GPU).
+    nthread (mujoco): MuJoCo threads; 0 for `default_threads()`."""
     chunk = chunk_size or auto_chunk(name, n_variants)
     if name == "mjx":
         return MjxBackend(scenario, cfg, chunk, matmul_precision, solver_impl)
-    return MujocoBackend(scenario, cfg, chunk)
+    return MujocoBackend(scenario, cfg, chunk, nthread)

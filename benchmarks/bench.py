@@ -123,7 +123,7 @@ def bench_raw_batch(spec, table, n_steps):
     return batch.n * n_steps / (time.perf_counter() - t0), b.nthread
 
 
-def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="highest", impl="auto"):
+def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="highest", impl="auto", nthread=0):
     """(columns, wall s, compile s, peak device bytes) of batchveh's backend on the table."""
     import jax
 
@@ -132,7 +132,7 @@ def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="h
 
     sc = spec.scenario
     cfg = stats.StatsConfig.make(sc.time_step, sc.n_steps, spec.window, wheel_radius=spec.vehicle.wheel.radius)
-    be = engine.make_backend(kind, sc, cfg, chunk, matmul_precision=matmul, solver_impl=impl)
+    be = engine.make_backend(kind, sc, cfg, chunk, matmul_precision=matmul, solver_impl=impl, nthread=nthread)
     out, t_run = [], 0.0
     for start in range(0, len(table), be.chunk_size):
         batch = make_batch(spec.vehicle, sc, _cols(table.iloc[start : start + be.chunk_size], spec))
@@ -245,7 +245,10 @@ def main():
         ser = bench_serial(spec, cpu_table.iloc[: args.serial_variants], n_steps)
         rows.append({"name": "serial mj_step loop (1 thread)", "rate": ser})
         cols, wall, _, _ = run_backend("mujoco", spec, cpu_table, args.cpu_variants)
-        rows.append({"name": f"batchveh mujoco ({nthread} threads)", "rate": len(cpu_table) * n_steps / wall})
+        from batchveh.engine import default_threads
+
+        label = f"batchveh mujoco ({default_threads()} threads)"
+        rows.append({"name": label, "rate": len(cpu_table) * n_steps / wall})
         cols_ref, *_ = run_backend("mujoco", spec, ref_table, args.ref_variants)
         rows[-1]["accuracy"] = accuracy(cols_ref, ref)
         print(rows[-3:], flush=True)

@@ -96,7 +96,7 @@ def main():
         "",
     ]
     for f in sorted((HERE / "results").glob("*.json")):
-        if "scaling" in f.name or "stages" in f.name or "profile" in f.name:
+        if any(k in f.name for k in ("scaling", "stages", "profile", "overhead")):
             continue
         d = json.loads(f.read_text())
         out += [bench_table(d), "", f"(raw data: `benchmarks/results/{f.name}`)", ""]
@@ -133,13 +133,29 @@ def main():
             profile_section(json.loads(f.read_text()), f.name),
             "",
         ]
+    for f in sorted((HERE / "results").glob("*overhead*.json")):
+        d = json.loads(f.read_text())
+        keys = [k for k in d["pairs"][0] if k.startswith("ratio")]
+        out += [
+            "## batchveh mujoco against raw mujoco.batch, alternated",
+            "",
+            f"`python benchmarks/cpu_overhead.py`: {d['variants']} variants x {d['steps']} steps, "
+            f"{d['cpu_threads']} CPU threads, raw mujoco.batch on {d['mujoco_threads']} threads; "
+            "columns: batchveh's MuJoCo thread count (raw data: " + f"`benchmarks/results/{f.name}`).",
+            "",
+            "| pair | raw variant-steps/s | " + " | ".join(f"x raw, {k[6:]} threads" for k in keys) + " |",
+            "| ---: | ---: | " + " | ".join("---:" for _ in keys) + " |",
+        ]
+        for i, p in enumerate(d["pairs"]):
+            out.append(f"| {i + 1} | {p['raw']:.3g} | " + " | ".join(f"{p[k]:.3f}" for k in keys) + " |")
+        med = d["median_ratio"]
+        out += ["| median of 2.. | | " + " | ".join(f"**{med[k]:.3f}**" for k in keys) + " |", ""]
     scaling = sorted((HERE / "results").glob("*scaling*.json"))
     if scaling:
         out += [
             "## Several GPUs of one host",
             "",
-            "`python benchmarks/scaling.py --n N --solver S`, "
-            "one GPU with CUDA_VISIBLE_DEVICES=0, then both; float32.",
+            "`python benchmarks/scaling.py --n N --solver S`, one GPU with CUDA_VISIBLE_DEVICES=0, then both; float32.",
             "",
             scaling_table(scaling),
             "",
