@@ -75,7 +75,7 @@ def solve(m, d):
 
     def _cost(jaref, ma, qacc):
         active = (jaref < 0) | forced
-        return 0.5 * jnp.sum(dd * jaref * jaref * active) + 0.5 * jnp.dot(ma - qfrc_smooth, qacc - qacc_smooth)
+        return 0.5 * jnp.sum(dd * jaref * jaref * active) + 0.5 * jnp.sum((ma - qfrc_smooth) * (qacc - qacc_smooth))
 
     # warm start: the better of last step's qacc and the unconstrained one (as MuJoCo)
     qacc = qacc_smooth
@@ -128,8 +128,8 @@ def _linesearch(jaref, jv, dd, forced, search, ma, qfrc_smooth, mv, rounds: int)
     fused reduction), keeps the bracket [lo, hi] of the minimiser, and takes the Newton step on
     f' (exact once the active set is right), or the bracket's midpoint when that step leaves it.
     The evaluated point of lowest cost is returned (a = 0 at worst: f never rises)."""
-    g1 = jnp.dot(search, ma - qfrc_smooth)
-    g2 = 0.5 * jnp.dot(search, mv)
+    g1 = jnp.sum(search * (ma - qfrc_smooth))
+    g2 = 0.5 * jnp.sum(search * mv)
     base = dd * jaref * jaref * ((jaref < 0) | forced)
 
     def evaluate(a):  # f(a) - f(0), f'(a), f''(a)
