@@ -47,6 +47,14 @@ def resolve_backend(name: str) -> str:
     return name
 
 
+def resolve_solver_impl(name: str) -> str:
+    """The MJX backend's solver code: 'auto' is 'fused' (batchveh.solver) when JAX sees a GPU,
+    else 'mjx' (MJX's own: on the CPU it is faster and compiles sooner)."""
+    if name == "auto":
+        return "fused" if has_gpu() else "mjx"
+    return name
+
+
 def _pad(batch: VariantBatch, size: int) -> VariantBatch:
     """Repeat the last variant so the chunk has `size` variants (same compiled shape)."""
     extra = size - batch.n
@@ -79,8 +87,7 @@ class MjxBackend:
         self.matmul_precision = matmul_precision
         self.devices = jax.devices()
         self.on_cpu = self.devices[0].platform == "cpu"
-        # the fused solver pays on accelerators; on the CPU MJX's own is faster and compiles sooner
-        self.fused = solver_impl == "fused" or (solver_impl == "auto" and not self.on_cpu)
+        self.solver_impl = resolve_solver_impl(solver_impl)
         nd = len(self.devices)
         self.chunk_size = max(nd, (chunk_size // nd) * nd)
         self._fn: dict[Any, Any] = {}
@@ -120,7 +127,7 @@ class MjxBackend:
         else:
             fn = jax.jit(jax.vmap(one, in_axes=(axes, 0)))
         t0 = time.perf_counter()
-        with jax.default_matmul_precision(self.matmul_precision), fused_solver(self.fused):
+        with jax.default_matmul_precision(self.matmul_precision), fused_solver(self.solver_impl == "fused"):
             compiled = fn.lower(mx, params).compile()
         self.compile_s += time.perf_counter() - t0
         self._fn[key] = compiled
@@ -164,6 +171,7 @@ class MujocoBackend:
     """MuJoCo C through mujoco.batch.Batch on all CPU threads (float64)."""
 
     name = "mujoco"
+    solver_impl = "mujoco"  # MuJoCo C's own solver
     compile_s = 0.0
     compiles = 0
 

@@ -9,8 +9,9 @@ about 850 kernels per step, and each reads and writes whole batch-sized arrays: 
 step went to batched cuSOLVER/cuBLAS Cholesky calls, and the zoom line search evaluates
 three points per round (benchmarks/NOTES.md). This module solves the same problem with:
 
-- the Hessian M + J' diag(D active) J and the gradient as element-wise products summed
-  over rows (XLA fuses each into one kernel; no TF32 `dot` on GPU float32);
+- the gradient and the other products as element-wise products and sums (XLA fuses them;
+  no `dot`, so no TF32 on GPU float32), and the Hessian M + J' diag(D active) J as one
+  batched product at explicit HIGHEST precision (`_hessian`);
 - the Cholesky factor and solve unrolled on scalars (`batchveh.linalg`), one fused kernel;
 - an exact line search: along the Newton direction f is a convex piecewise quadratic, and a
   safeguarded 1-D Newton iteration on its derivative (one evaluation per round, bracket kept)

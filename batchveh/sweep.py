@@ -114,7 +114,7 @@ def run_sweep(
         "chunk_size": chunk,
         "backend": backend,
         "precision": spec.precision,
-        "solver_impl": "fused" if getattr(engine, "fused", False) else backend,
+        "solver_impl": engine.solver_impl,
     }
     existing = io.parts(out) if out.exists() else []
     if (existing or (out / io.MANIFEST).exists()) and not resume:

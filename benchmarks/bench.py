@@ -84,6 +84,43 @@ def set_solver(m, name: str, tolerance: float | None = None):
     )
 
 
+def mjx_model(spec, table, solver: str):
+    """The batched MJX model of the table's variants with the named SOLVERS setting, and its in_axes."""
+    from batchveh.rollout import put_batch
+    from batchveh.variants import make_batch
+
+    batch = make_batch(spec.vehicle, spec.scenario, _cols(table, spec))
+    set_solver(batch.model, solver)
+    return put_batch(batch)
+
+
+def settled(m, axes, steps: int = 100):
+    """Every variant after `steps` MJX steps with the drive servos holding speed (a steady state)."""
+    import jax
+    import jax.numpy as jnp
+    from mujoco import mjx
+
+    def settle(mm):
+        d = mjx.make_data(mm)
+        ctrl = jnp.zeros(mm.nu).at[:4].set(1.0).at[8:12].set(1.0)
+        return jax.lax.scan(lambda d, _: (mjx.step(mm, d.replace(ctrl=ctrl)), None), d, None, length=steps)[0]
+
+    return jax.block_until_ready(jax.jit(jax.vmap(settle, in_axes=(axes,)))(m))
+
+
+def best_time(fn, *args, repeat: int = 10) -> float:
+    """Fastest of `repeat` timed calls of fn(*args) after one warm-up, s."""
+    import jax
+
+    jax.block_until_ready(fn(*args))
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        jax.block_until_ready(fn(*args))
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
 def bench_serial(spec, table, n_steps):
     import mujoco
 
@@ -253,9 +290,10 @@ def main():
         rows[-1]["accuracy"] = accuracy(cols_ref, ref)
         print(rows[-3:], flush=True)
 
-    on_gpu = jax.devices()[0].platform != "cpu"
+    from batchveh.engine import resolve_solver_impl
+
     configs = [
-        (p == "f64", s, mm, "fused" if i == "auto" and on_gpu else "mjx" if i == "auto" else i)
+        (p == "f64", s, mm, resolve_solver_impl(i))
         for p in args.precisions
         for s in args.solvers
         for mm in args.matmul

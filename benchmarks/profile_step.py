@@ -68,15 +68,13 @@ def time_hessians(n: int, rows: int = 48, nv: int = 14) -> list[dict]:
     j = jax.device_put(rng.normal(size=(n, rows, nv)).astype(np.float32))
     w = jax.device_put(rng.uniform(size=(n, rows)).astype(np.float32))
     ref = np.einsum("bri,br,brj->bij", np.asarray(j[:64], np.float64), np.asarray(w[:64]), np.asarray(j[:64]))
+    from bench import best_time
+
     out = []
     for name, fn in HESSIANS.items():
         f = jax.jit(jax.vmap(fn))
         h = np.asarray(f(j, w)[:64])
-        best = float("inf")
-        for _ in range(20):
-            t0 = time.perf_counter()
-            jax.block_until_ready(f(j, w))
-            best = min(best, time.perf_counter() - t0)
+        best = best_time(f, j, w, repeat=20)
         out.append({"hessian": name, "ms": best * 1e3, "max_rel_err": float(np.abs(h - ref).max() / np.abs(ref).max())})
         print(f"hessian {name:18s} {best * 1e3:8.3f} ms  rel err {out[-1]['max_rel_err']:.1e}")
     return out
@@ -97,19 +95,14 @@ def main():
 
     bench.WHEEL_COLLISION = args.wheel_collision
     import jax
-    from bench import _cols, set_solver, slope_table
-
-    from batchveh.rollout import put_batch
-    from batchveh.variants import make_batch
+    from bench import mjx_model, slope_table
 
     spec, table = slope_table(args.n, seed=3)
     results = {"n": args.n, "device": jax.devices()[0].device_kind, "rows": []}
     if args.hessians:
         results["hessians"] = time_hessians(args.n)
     for solver in args.solvers:
-        batch = make_batch(spec.vehicle, spec.scenario, _cols(table, spec))
-        set_solver(batch.model, solver)
-        results["rows"] += profile(*put_batch(batch), solver, args)
+        results["rows"] += profile(*mjx_model(spec, table, solver), solver, args)
     if args.out:
         Path(args.out).write_text(json.dumps(results, indent=1))
 
@@ -117,22 +110,17 @@ def main():
 def profile(m, axes, solver, args):
     import jax
     import jax.numpy as jnp
+    from bench import best_time, settled
     from mujoco import mjx
 
     from batchveh.linalg import small_cholesky
     from batchveh.solver import fused_solver
 
     patches = {"mjx": lambda: small_cholesky(False), "chol": small_cholesky, "fused": fused_solver}
-
-    def settle(mm):  # 100 steps with the drive servos holding speed
-        d = mjx.make_data(mm)
-        ctrl = jnp.zeros(mm.nu).at[:4].set(1.0).at[8:12].set(1.0)
-        return jax.lax.scan(lambda d, _: (mjx.step(mm, d.replace(ctrl=ctrl)), None), d, None, length=100)[0]
-
     rows = []
     with jax.default_matmul_precision("highest"):
-        data = jax.jit(jax.vmap(settle, in_axes=(axes,)))(m)
-        jax.block_until_ready(data)
+        data = settled(m, axes)
+        ref_qacc = jax.jit(jax.vmap(mjx.step, in_axes=(axes, 0)))(m, data).qacc  # MJX as it is
         for mode in args.modes:
             t0 = time.perf_counter()
             with patches[mode]():
@@ -141,14 +129,8 @@ def profile(m, axes, solver, args):
             if args.dump_hlo:
                 Path(args.dump_hlo).mkdir(parents=True, exist_ok=True)
                 (Path(args.dump_hlo) / f"{solver}-{mode}.hlo.txt").write_text(f.as_text())
-            out = f(m, data)
-            jax.block_until_ready(out)
-            err = float(jnp.max(jnp.abs(out.qacc - jax.jit(jax.vmap(mjx.step, in_axes=(axes, 0)))(m, data).qacc)))
-            best = float("inf")
-            for _ in range(10):
-                t0 = time.perf_counter()
-                jax.block_until_ready(f(m, data))
-                best = min(best, time.perf_counter() - t0)
+            err = float(jnp.max(jnp.abs(f(m, data).qacc - ref_qacc)))
+            best = best_time(f, m, data)
             row = {
                 "solver": solver,
                 "mode": mode,

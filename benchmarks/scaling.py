@@ -25,7 +25,9 @@ def main():
     import jax
     from bench import run_backend, slope_table
 
-    impl = args.impl if args.impl != "auto" else "mjx" if jax.devices()[0].platform == "cpu" else "fused"
+    from batchveh.engine import resolve_solver_impl
+
+    impl = resolve_solver_impl(args.impl)
 
     spec, table = slope_table(args.n, seed=3)
     best = 0.0

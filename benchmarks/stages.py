@@ -10,7 +10,6 @@ cost. This is the profile evidence for benchmarks/NOTES.md (no trace viewer is n
 import argparse
 import json
 import sys
-import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -28,31 +27,14 @@ def main():
 
     bench.WHEEL_COLLISION = args.wheel_collision
     import jax
-    import jax.numpy as jnp
-    from bench import _cols, set_solver, slope_table
+    from bench import best_time, mjx_model, settled, slope_table
     from mujoco import mjx
 
-    from batchveh.rollout import put_batch
-    from batchveh.variants import make_batch
-
     spec, table = slope_table(args.n, seed=3)
-    batch = make_batch(spec.vehicle, spec.scenario, _cols(table, spec))
-    set_solver(batch.model, args.solver)
-    m, axes = put_batch(batch)
-
-    # a settled state: 100 steps with the drive servos holding speed
-    def settle(mm):
-        d = mjx.make_data(mm)
-        ctrl = jnp.zeros(mm.nu).at[:4].set(1.0).at[8:12].set(1.0)
-
-        def body(d, _):
-            return mjx.step(mm, d.replace(ctrl=ctrl)), None
-
-        return jax.lax.scan(body, d, None, length=100)[0]
+    m, axes = mjx_model(spec, table, args.solver)
 
     with jax.default_matmul_precision("highest"):
-        data = jax.jit(jax.vmap(settle, in_axes=(axes,)))(m)
-        jax.block_until_ready(data)
+        data = settled(m, axes)
 
         def smooth(mm, d):
             for f in (mjx.kinematics, mjx.com_pos, mjx.crb, mjx.factor_m):
@@ -80,13 +62,7 @@ def main():
         ]
         rows, prev = [], 0.0
         for name, fn in stages:
-            f = jax.jit(jax.vmap(fn, in_axes=(axes, 0)))
-            jax.block_until_ready(f(m, data))
-            best = float("inf")
-            for _ in range(10):
-                t0 = time.perf_counter()
-                jax.block_until_ready(f(m, data))
-                best = min(best, time.perf_counter() - t0)
+            best = best_time(jax.jit(jax.vmap(fn, in_axes=(axes, 0))), m, data)
             rows.append({"stage": name, "ms": best * 1e3, "delta_ms": best * 1e3 - prev})
             prev = best * 1e3
     total = rows[-1]["ms"]
