@@ -25,18 +25,20 @@ def _choose_gl() -> None:
 _choose_gl()
 
 from batchveh.config import ConfigError  # noqa: E402  (after _choose_gl: these import mujoco)
-from batchveh.io import load, metadata, units  # noqa: E402  (after _choose_gl: these import mujoco)
-from batchveh.scenarios import SCENARIOS, Scenario, load_scenario, make_scenario  # noqa: E402  (after _choose_gl: these import mujoco)
-from batchveh.spec import load_spec, spec_from_mapping, variants  # noqa: E402  (after _choose_gl: these import mujoco)
-from batchveh.vehicle import MOTORS, Vehicle, load_vehicle  # noqa: E402  (after _choose_gl: these import mujoco)
+from batchveh.results import ResultError, load, metadata, units  # noqa: E402
+from batchveh.scenarios import SCENARIOS, Scenario, load_scenario, make_scenario  # noqa: E402
+from batchveh.spec import SweepSpec, load_spec, spec_from_mapping, variant_table  # noqa: E402
+from batchveh.vehicle import MOTORS, Vehicle, load_vehicle  # noqa: E402
 
 _LAZY = {"simulate": "batchveh.run", "run_sweep": "batchveh.sweep"}
 
 __all__ = [
     "ConfigError",
     "MOTORS",
+    "ResultError",
     "SCENARIOS",
     "Scenario",
+    "SweepSpec",
     "Vehicle",
     "load",
     "load_scenario",
@@ -48,7 +50,7 @@ __all__ = [
     "simulate",
     "spec_from_mapping",
     "units",
-    "variants",
+    "variant_table",
 ]
 
 

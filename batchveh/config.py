@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import types
 import typing
 from pathlib import Path
@@ -29,19 +30,40 @@ def did_you_mean(name: Any, choices: Any) -> str:
     return f" (did you mean {close[0]!r}?)" if close else ""
 
 
+class Loader(yaml.SafeLoader):
+    """PyYAML's safe loader with YAML 1.2 floats: `1e9`, `1.0e9` and `-2E-3` are numbers.
+
+    PyYAML follows YAML 1.1, where a float needs a dot and a signed exponent, so `1e9`
+    would be the string '1e9'. A subclass: PyYAML's own loaders stay as they are."""
+
+
+Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."),
+)
+
+
+def parse_yaml(text: str) -> Any:
+    """Parse YAML text with `Loader`."""
+    return yaml.load(text, Loader=Loader)  # noqa: S506  (a SafeLoader subclass)
+
+
 def load_yaml(path: str | Path) -> dict[str, Any]:
     """Read a YAML mapping from `path`, with errors as one-line `ConfigError`s."""
     path = Path(path)
     if not path.is_file():
-        raise ConfigError(f"{path}: file not found")
+        raise ConfigError(f"{path}: file not found" if not path.exists() else f"{path}: not a file")
     try:
-        data = yaml.safe_load(path.read_text())
+        data = parse_yaml(path.read_text())
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         where = f" line {mark.line + 1}" if mark is not None else ""
         raise ConfigError(f"{path}:{where} not valid YAML ({getattr(err, 'problem', err)})") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise ConfigError(f"{path}: cannot be read ({getattr(err, 'strerror', None) or err})") from None
     if data is None:
-        return {}
+        raise ConfigError(f"{path}: the file is empty; expected a mapping of keys to values")
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: expected a mapping of keys to values, got {type(data).__name__}")
     return data
@@ -67,7 +89,7 @@ def _allowed(meta: dict[str, Any]) -> str:
         parts.append(f">= {meta['ge']}")
     if meta.get("le") is not None:
         parts.append(f"<= {meta['le']}")
-    unit = f" {meta['unit']}" if meta.get("unit") else ""
+    unit = f" {meta['unit']}" if meta.get("unit") not in (None, "", "1") else ""  # "1": dimensionless
     return (" and ".join(parts) or "any finite value") + unit
 
 
@@ -99,9 +121,15 @@ def _convert(value: Any, tp: Any, meta: dict[str, Any], where: str) -> Any:
     if tp is float:
         return check_number(value, meta, where)
     if tp is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{where}: {value!r} is not an integer; allowed: {_allowed(meta)}")
-        check_number(value, meta, where)
+        ok = not isinstance(value, bool) and isinstance(value, int)
+        try:
+            ok = ok and check_number(value, meta, where) is not None
+        except ConfigError:
+            ok = False
+        if not ok:
+            allowed = _allowed(meta)
+            allowed = "an integer" if allowed == "any finite value" else f"an integer {allowed}"
+            raise ConfigError(f"{where}: {value!r} is not allowed; allowed: {allowed}")
         return value
     if tp is bool:
         if not isinstance(value, bool):
@@ -170,8 +198,3 @@ def check_dataclass(obj: Any, where: str) -> None:
             check_dataclass(value, f"{where}.{f.name}")
         elif isinstance(value, float) and f.metadata:
             check_number(value, dict(f.metadata), f"{where}.{f.name}")
-
-
-def units(cls: type) -> dict[str, str]:
-    """Map each float field of `cls` to its unit (for docs and Parquet metadata)."""
-    return {f.name: f.metadata.get("unit", "") for f in dataclasses.fields(cls) if f.metadata}

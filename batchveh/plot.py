@@ -80,7 +80,7 @@ def label(name: str) -> str:
     """Axis label with unit for a parameter or result column."""
     if name in LABELS:
         return LABELS[name]
-    from batchveh.io import column_doc
+    from batchveh.results import column_doc
 
     unit = column_doc(name, {})[0]
     return f"{name} [{unit}]" if unit else name
@@ -222,7 +222,7 @@ def sweep_figures(df: pd.DataFrame, name: str, out_dir: str | Path, swept: list[
     swept parameter; the slope x friction heatmap when both are swept; the steering
     envelope when a steering parameter is swept.
     """
-    from batchveh.variants import parameter_specs
+    from batchveh.params import parameter_specs
 
     out_dir = Path(out_dir)
     if swept is None:

@@ -20,10 +20,29 @@ from pathlib import Path
 import mujoco  # noqa: E402  (batchveh/__init__ chose MUJOCO_GL before this import)
 import numpy as np
 
-from batchveh.config import ConfigError  # noqa: E402
-from batchveh.scenarios import Scenario, control_schedule, load_scenario  # noqa: E402
-from batchveh.variants import make_batch  # noqa: E402
+from batchveh.batch import make_batch  # noqa: E402
+from batchveh.config import ConfigError, check_dataclass  # noqa: E402
+from batchveh.scenarios import Scenario, load_scenario  # noqa: E402
 from batchveh.vehicle import Vehicle, load_vehicle  # noqa: E402
+
+NO_GL = (
+    "no OpenGL for offscreen rendering ({err}); install EGL (libegl1 libegl-mesa0 libgl1-mesa-dri) "
+    "or OSMesa (libosmesa6, MUJOCO_GL=osmesa)"
+)
+
+
+def _renderer(m: mujoco.MjModel, height: int, width: int) -> mujoco.Renderer:
+    """MuJoCo's offscreen renderer; any failure to get an OpenGL context is one ConfigError line."""
+    try:
+        return mujoco.Renderer(m, height, width)
+    except ValueError as err:  # the size exceeds the model's offscreen buffer
+        raise ConfigError(f"--size: {width} x {height} is not allowed ({err})") from None
+    except Exception as err:  # mujoco.FatalError, or AttributeError/ImportError from a missing GL library
+        msg = str(err).splitlines()[0] if str(err) else type(err).__name__
+        raise ConfigError(NO_GL.format(err=msg)) from None
+
+
+MAX_SIZE = 640  # pixels: the model's offscreen buffer (vehicle.mjcf's <visual><global offwidth/offheight>)
 
 
 def _camera(m: mujoco.MjModel) -> mujoco.MjvCamera:
@@ -44,28 +63,25 @@ def frames(
     max_frames: int | None = None,
 ) -> list[np.ndarray]:
     """Simulate on MuJoCo C and return RGB frames (height, width, 3), uint8, at `fps` per simulated second."""
-    import jax.numpy as jnp
+    from batchveh.rollout import mujoco_steps
 
     batch = make_batch(vehicle, scenario, {})
     m = batch.model
-    d = mujoco.MjData(m)
-    params = {k: jnp.asarray(v[0]) for k, v in batch.params.items()}
-    dt = m.opt.timestep
-    ctrls = np.asarray(control_schedule(scenario)(params, jnp.asarray(np.arange(scenario.n_steps) * dt)), np.float64)
-    every = max(1, int(round(1.0 / (fps * dt))))
+    params = {k: v[0] for k, v in batch.params.items()}
+    every = max(1, int(round(1.0 / (fps * m.opt.timestep))))
     out = []
-    renderer = mujoco.Renderer(m, height, width)
+    renderer = _renderer(m, height, width)
     try:
         cam = _camera(m)
-        mujoco.mj_forward(m, d)
-        for i in range(scenario.n_steps):
+        steps = mujoco_steps(m, params, scenario=scenario, n_steps=scenario.n_steps)
+        for i, (d, _) in enumerate(steps):  # d: the state after i steps; a frame every `every` steps
+            if i == scenario.n_steps:
+                break
             if i % every == 0:
                 renderer.update_scene(d, camera=cam)
                 out.append(renderer.render().copy())
                 if max_frames and len(out) >= max_frames:
                     break
-            d.ctrl[:] = ctrls[i]
-            mujoco.mj_step(m, d)
     finally:
         renderer.close()
     return out
@@ -76,7 +92,7 @@ def still(vehicle: Vehicle, *, width: int = 640, height: int = 480) -> np.ndarra
     m = make_batch(vehicle, Scenario(), {}).model
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
-    renderer = mujoco.Renderer(m, height, width)
+    renderer = _renderer(m, height, width)
     try:
         renderer.update_scene(d, camera=_camera(m))
         return renderer.render().copy()
@@ -116,10 +132,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("motion.gif"), help=".gif (animation) or .png (still)")
     args = parser.parse_args(argv)
     try:
+        if args.fps < 1:
+            raise ConfigError(f"--fps: {args.fps} is not allowed; allowed: an integer >= 1")
+        w, h = args.size
+        if w < 1 or h < 1 or w > MAX_SIZE or h > MAX_SIZE:
+            raise ConfigError(f"--size: {w} {h} is not allowed; allowed: width and height from 1 to {MAX_SIZE} pixels")
+        if args.out.suffix.lower() not in (".gif", ".png"):
+            raise ConfigError(f"--out: {str(args.out)!r} is not allowed; allowed suffixes: .gif, .png")
         src = Path(args.source)
         if src.is_dir():
             import batchveh
-            from batchveh.spec import spec_of_result, variant_setup
+            from batchveh.spec import spec_of_result
 
             if args.variant is None:
                 raise ConfigError(f"{src}: a sweep result; give --variant N")
@@ -127,14 +150,14 @@ def main(argv: list[str] | None = None) -> int:
             rows = df[df.variant == args.variant]
             if rows.empty:
                 raise ConfigError(f"--variant: {args.variant} is not in {src}; allowed: 0 to {df.variant.max()}")
-            vehicle, scenario = variant_setup(spec_of_result(src), rows.iloc[0])
+            vehicle, scenario = spec_of_result(src).variant(rows.iloc[0])
         else:
             vehicle, scenario = load_vehicle(args.vehicle), load_scenario(args.source)
-            if args.slope_deg is not None:
-                scenario = dataclasses.replace(scenario, slope_deg=args.slope_deg)
-        if args.total_time is not None:
-            scenario = dataclasses.replace(scenario, total_time=args.total_time)
-        w, h = args.size
+        over = {k: getattr(args, k) for k in ("slope_deg", "total_time") if getattr(args, k) is not None}
+        if over:
+            scenario = dataclasses.replace(scenario, **over)
+            check_dataclass(scenario, "command line")
+            scenario.validate("command line")
         images = (
             [still(vehicle, width=w, height=h)]
             if args.still
@@ -144,14 +167,10 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
-    except mujoco.FatalError as err:
-        print(
-            f"error: no OpenGL for offscreen rendering ({err}); install EGL (libegl1 libegl-mesa0 "
-            "libgl1-mesa-dri) or OSMesa (libosmesa6, MUJOCO_GL=osmesa)",
-            file=sys.stderr,
-        )
+    except OSError as err:
+        print(f"error: {args.out}: cannot write ({err.strerror or err})", file=sys.stderr)
         return 2
-    print(f"wrote {path} ({len(images)} frame{'s' if len(images) > 1 else ''}, {args.size[0]}x{args.size[1]})")
+    print(f"wrote {path} ({len(images)} frame{'s' if len(images) > 1 else ''}, {w}x{h})")
     return 0
 
 

@@ -11,42 +11,32 @@ t = (i + 1) dt; its torques are the ones applied during that step.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any
 
 import jax
 import jax.numpy as jnp
 import mujoco
 import numpy as np
-from mujoco import mjx
 
 from batchveh import stats
+from batchveh.batch import import_mjx
 from batchveh.scenarios import Scenario, control_schedule, controls_fn
-from batchveh.variants import VariantBatch
 from batchveh.vehicle import Layout, layout
 
-
-def put_batch(batch: VariantBatch) -> tuple[mjx.Model, mjx.Model]:
-    """The MJX model with batched fields, and its `in_axes` tree (0 where a field varies)."""
-    m = mjx.put_model(batch.model)
-    axes = jax.tree_util.tree_map(lambda _: None, m)
-    opt, opt_axes = {}, {}
-    top, top_axes = {}, {}
-    for name, values in batch.fields.items():
-        if name.startswith("opt."):
-            opt[name[4:]], opt_axes[name[4:]] = jnp.asarray(values), 0
-            continue
-        if isinstance(getattr(m, name, None), np.ndarray):
-            raise ValueError(f"model field {name} is static in MJX and cannot vary inside one program")
-        if not hasattr(m, name):
-            continue  # a field MJX does not use (e.g. dof_length)
-        top[name], top_axes[name] = jnp.asarray(values), 0
-    m = m.replace(opt=m.opt.replace(**opt), **top)
-    axes = axes.replace(opt=axes.opt.replace(**opt_axes), **top_axes)
-    return m, axes
+mjx = import_mjx()
 
 
-def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, n_steps: int, lay: Layout, body_out):
+def float_precision(name: str):
+    """A context in which JAX computes in `name` ('f32' or 'f64'): scoped, never process-wide.
+
+    Trace, compile and call an MJX program inside it; arrays made outside keep their dtype."""
+    if name not in ("f32", "f64"):
+        raise ValueError(f"precision {name!r}; allowed: f32, f64")
+    return jax.enable_x64(name == "f64")
+
+
+def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: Layout, body_out):
     ctrl_fn = controls_fn(scenario)
     dt = model.opt.timestep
 
@@ -54,7 +44,7 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, n_ste
         d, acc = carry
         ctrl = ctrl_fn(params, i * dt).astype(d.ctrl.dtype)
         d = mjx.step(model, d.replace(ctrl=ctrl))
-        s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, lay)
+        s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, params["wheel.radius"], lay)
         return body_out(d, acc, s, i)
 
     return body
@@ -70,7 +60,7 @@ def mjx_stats(
         block = {k: v[None] for k, v in s.items()}  # a block of one step: time axis -2
         return (d, stats.update(acc, block, i[None], cfg, xp=jnp)), None
 
-    body = _scan(model, params, scenario, cfg.n_steps, lay, out)
+    body = _scan(model, params, scenario, lay, out)
     init = (mjx.make_data(model), stats.init(cfg, (), xp=jnp, dtype=dtype))
     (_, acc), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps))
     return stats.finalize(acc, cfg, xp=jnp)
@@ -84,9 +74,28 @@ def mjx_series(
     def out(d, acc, s, i):
         return (d, acc), s
 
-    body = _scan(model, params, scenario, n_steps, lay, out)
+    body = _scan(model, params, scenario, lay, out)
     _, series = jax.lax.scan(body, (mjx.make_data(model), ()), jnp.arange(n_steps))
     return series
+
+
+def mujoco_steps(
+    m: mujoco.MjModel, params: Mapping[str, Any], *, scenario: Scenario, n_steps: int
+) -> Iterator[tuple[mujoco.MjData, np.ndarray]]:
+    """Step MuJoCo C (float64) through the scenario; yield (data, controls) after each step.
+
+    Before the first step the data is forwarded (for a first frame, say) and yielded with
+    controls None. The same data object is yielded every time."""
+    d = mujoco.MjData(m)
+    p = {k: jnp.asarray(v) for k, v in params.items()}
+    times = jnp.asarray(np.arange(n_steps) * m.opt.timestep)
+    ctrls = np.asarray(jax.jit(control_schedule(scenario))(p, times), dtype=np.float64)
+    mujoco.mj_forward(m, d)
+    yield d, None
+    for i in range(n_steps):
+        d.ctrl[:] = ctrls[i]
+        mujoco.mj_step(m, d)
+        yield d, ctrls[i]
 
 
 def mujoco_series(
@@ -94,15 +103,12 @@ def mujoco_series(
 ) -> dict[str, np.ndarray]:
     """Per-step samples from MuJoCo C (float64), the reference for MJX."""
     lay = layout(m)
-    d = mujoco.MjData(m)
-    p = {k: jnp.asarray(v) for k, v in params.items()}
-    times = jnp.asarray(np.arange(n_steps) * m.opt.timestep)
-    ctrls = np.asarray(jax.jit(control_schedule(scenario))(p, times), dtype=np.float64)
-    rows = []
-    for i in range(n_steps):
-        d.ctrl[:] = ctrls[i]
-        mujoco.mj_step(m, d)
-        rows.append(stats.sample(d.qpos.copy(), d.qvel.copy(), d.qfrc_actuator.copy(), ctrls[i], lay))
+    radius = float(params["wheel.radius"])
+    rows = [
+        stats.sample(d.qpos.copy(), d.qvel.copy(), d.qfrc_actuator.copy(), ctrl, radius, lay)
+        for d, ctrl in mujoco_steps(m, params, scenario=scenario, n_steps=n_steps)
+        if ctrl is not None
+    ]
     return {k: np.stack([r[k] for r in rows]) for k in rows[0]}
 
 

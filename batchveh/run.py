@@ -20,9 +20,9 @@ import numpy as np
 import pandas as pd
 
 from batchveh import stats
+from batchveh.batch import make_batch
 from batchveh.config import ConfigError
 from batchveh.scenarios import SCENARIOS, Scenario, load_scenario
-from batchveh.variants import make_batch
 from batchveh.vehicle import CORNERS, MOTORS, Vehicle, load_vehicle
 
 UNITS = {
@@ -46,7 +46,7 @@ UNITS = {
 }
 
 
-def series_frame(series: dict[str, np.ndarray], dt: float, wheel_radius: float) -> pd.DataFrame:
+def series_frame(series: dict[str, np.ndarray], dt: float) -> pd.DataFrame:
     """Per-step samples as a DataFrame with the columns of UNITS."""
     s = {k: np.asarray(v, np.float64) for k, v in series.items()}
     n = len(s["tau"])
@@ -63,7 +63,7 @@ def series_frame(series: dict[str, np.ndarray], dt: float, wheel_radius: float) 
     cols["roll"], cols["pitch"], cols["yaw"] = roll, pitch, yaw
     cols["vx"], cols["vy"], cols["vz"] = s["vel"].T
     cols["v_forward"] = s["vel"][:, 0] * np.cos(yaw) + s["vel"][:, 1] * np.sin(yaw)
-    rim = s["omega"].mean(1) * wheel_radius
+    rim = s["rim"]
     moving = np.abs(rim) > 1e-3
     cols["slip"] = np.where(moving, 1 - cols["v_forward"] / np.where(moving, rim, 1.0), 0.0)
     return pd.DataFrame(cols)
@@ -80,9 +80,15 @@ class RunResult:
 
 
 def simulate(
-    vehicle: Vehicle, scenario: Scenario, backend: str = "mujoco", window: tuple[float, float] | None = None
+    vehicle: Vehicle,
+    scenario: Scenario,
+    backend: str = "mujoco",
+    window: tuple[float, float] | None = None,
+    precision: str = "f32",
 ) -> RunResult:
-    """Run one scenario on MuJoCo C ('mujoco') or MJX ('mjx'); record every step."""
+    """Run one scenario on MuJoCo C ('mujoco', float64) or MJX ('mjx', `precision` f32 or f64);
+    record every step."""
+    cfg = stats.StatsConfig.make(scenario.time_step, scenario.n_steps, window)
     batch = make_batch(vehicle, scenario, {})
     params = {k: float(v[0]) for k, v in batch.params.items()}
     n = scenario.n_steps
@@ -94,19 +100,20 @@ def simulate(
         import jax
         import jax.numpy as jnp
 
-        from batchveh.rollout import mjx_series, put_batch
+        from batchveh.batch import mjx_model
+        from batchveh.rollout import float_precision, mjx_series
         from batchveh.vehicle import layout
 
-        mx, _ = put_batch(batch)
         lay = layout(batch.model)
-        fn = jax.jit(lambda m, p: mjx_series(m, p, scenario=scenario, n_steps=n, lay=lay))
-        series = jax.device_get(fn(mx, {k: jnp.asarray(v) for k, v in params.items()}))
+        with float_precision(precision):
+            mx, _ = mjx_model(batch)
+            fn = jax.jit(lambda m, p: mjx_series(m, p, scenario=scenario, n_steps=n, lay=lay))
+            series = jax.device_get(fn(mx, {k: jnp.asarray(v) for k, v in params.items()}))
     else:
         raise ConfigError(f"--backend: {backend!r} is not allowed; allowed: mujoco, mjx")
     from batchveh.rollout import series_stats
 
-    cfg = stats.StatsConfig.make(scenario.time_step, n, window, wheel_radius=vehicle.wheel.radius)
-    frame = series_frame(series, scenario.time_step, vehicle.wheel.radius)
+    frame = series_frame(series, scenario.time_step)
     return RunResult(frame, series_stats(series, cfg), scenario, vehicle)
 
 
@@ -116,17 +123,11 @@ def write(result: RunResult, out: Path, overwrite: bool = False) -> list[Path]:
     if target.exists() and not overwrite:
         raise FileExistsError(f"{target} exists; give --overwrite to replace it")
     out.mkdir(parents=True, exist_ok=True)
-    import pyarrow as pa
-    import pyarrow.parquet as pq
+    from batchveh.results import annotated_table, write_table
 
-    table = pa.Table.from_pandas(result.series, preserve_index=False)
-    schema = pa.schema(
-        [f.with_metadata({"unit": UNITS.get(f.name, "")}) for f in table.schema],
-        metadata={"scenario": repr(result.scenario), "vehicle": repr(result.vehicle)},
-    )
-    tmp = target.with_suffix(".tmp")
-    pq.write_table(table.cast(schema), tmp)
-    tmp.replace(target)
+    fields = {name: {"unit": UNITS.get(name, "")} for name in result.series.columns}
+    meta = {"scenario": repr(result.scenario), "vehicle": repr(result.vehicle)}
+    write_table(annotated_table(result.series, fields, meta), target)
     from batchveh.plot import seed_figures
 
     title = f"{result.scenario.kind}, slope {result.scenario.slope_deg:g} deg, mu {result.scenario.friction:g}"
@@ -153,10 +154,6 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--overwrite", action="store_true", help="replace existing results")
     args = parser.parse_args(argv)
     try:
-        if args.precision == "f64":
-            import jax
-
-            jax.config.update("jax_enable_x64", True)
         vehicle = load_vehicle(args.vehicle)
         scenario = load_scenario(args.scenario)
         over = {
@@ -175,10 +172,15 @@ def main(argv: list[str] | None = None) -> int:
             print(f"error: {out / 'series.parquet'} exists; give --overwrite to replace it", file=sys.stderr)
             return 3
         t0 = time.perf_counter()
-        result = simulate(vehicle, scenario, backend=args.backend)
+        result = simulate(vehicle, scenario, backend=args.backend, precision=args.precision)
         paths = write(result, out, overwrite=args.overwrite)
     except ConfigError as err:
         print(f"error: {err}", file=sys.stderr)
+        return 2
+    except OSError as err:
+        print(
+            f"error: {err.filename or args.out or 'the output'}: cannot write ({err.strerror or err})", file=sys.stderr
+        )
         return 2
     s = result.stats
     print(

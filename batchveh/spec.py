@@ -1,4 +1,4 @@
-"""Sweep specs: YAML -> a validated `SweepSpec` -> a table of variants.
+"""Sweep specs: YAML -> a validated `SweepSpec` -> a lazy table of variants.
 
 ```yaml
 name: slope
@@ -15,58 +15,90 @@ solver: {type: newton, iterations: 8, ls_iterations: 16}   # optional; MuJoCo's 
 ```
 For `random` and `lhs`, `n` and `seed` are required, and each parameter is
 `{low, high}` with optional `log: true` (log-uniform).
+
+The typed parts (`SpecFile`, `Sampling`, `SolverOptions`) are validated by
+`config.from_mapping`, so every error is one line naming the file, key, value and
+what is allowed. Everything that cannot give valid statistics (a window outside
+the run, fewer steps than a window needs, a swept static field) is refused here,
+before any work. The variant table is lazy: `len(spec.table())` counts a
+billion-variant grid at once, and `rows(start, stop)` builds one chunk.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import itertools
+import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
 
-from batchveh.config import ConfigError, check_number, did_you_mean, load_yaml
+from batchveh.config import ConfigError, check_number, did_you_mean, field, from_mapping, load_yaml
+from batchveh.params import STATIC, parameter_specs, variant_setup
 from batchveh.scenarios import Scenario, load_scenario, scenario_from_mapping
-from batchveh.variants import STATIC, parameter_specs
+from batchveh.stats import StatsConfig
 from batchveh.vehicle import Vehicle, load_vehicle, vehicle_from_mapping
 
-METHODS = ("grid", "random", "lhs", "zip")
-TOP_KEYS = (
-    "name",
-    "scenario",
-    "vehicle",
-    "fixed",
-    "sweep",
-    "output",
-    "window",
-    "lowpass_s",
-    "chunk_size",
-    "backend",
-    "precision",
-    "solver",
-)
-SOLVER_KEYS = {
-    "type": ("newton", "cg"),
-    "iterations": int,
-    "ls_iterations": int,
-    "tolerance": float,
-    "impl": ("auto", "fused", "mjx"),  # MJX backend: batchveh.solver's fused Newton or MJX's own
-}
+MAX_VARIANTS = 10_000_000  # a sweep above this is refused unless the limit is raised (--max-variants)
+RNG_BLOCK = 65536  # random and lhs rows are drawn in blocks of this many, so values do not depend on chunking
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """MuJoCo solver options (None keeps MuJoCo's) and the MJX backend's solver code."""
+
+    type: Literal["newton", "cg"] | None = None
+    iterations: int | None = field(None, ge=1)
+    ls_iterations: int | None = field(None, ge=1)
+    tolerance: float | None = field(None, gt=0)
+    impl: Literal["auto", "fused", "mjx"] = "auto"  # MJX backend: batchveh.solver's fused Newton or MJX's own
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """The `sweep:` part: how the variants are drawn; `params` is checked per method."""
+
+    method: Literal["grid", "random", "lhs", "zip"] = "grid"
+    params: dict | None = None
+    n: int | None = field(None, ge=1)
+    seed: int = field(0, ge=0)
+
+
+@dataclass(frozen=True)
+class SpecFile:
+    """The top-level keys of a sweep YAML."""
+
+    name: str = ""
+    scenario: Any = "straight_line"
+    vehicle: Any = None
+    fixed: dict | None = None
+    sweep: Sampling | None = None
+    output: str | None = None
+    window: tuple[float, float] | None = field(None, unit="s", ge=0)
+    lowpass_s: float = field(0.05, unit="s", gt=0)
+    chunk_size: int | None = field(None, ge=1)
+    backend: Literal["auto", "mjx", "mujoco"] = "auto"
+    precision: Literal["f32", "f64"] = "f32"
+    solver: SolverOptions = SolverOptions()
+
+    def validate(self, where: str) -> None:
+        if not self.name:
+            raise ConfigError(f"{where}: name: {self.name!r} is not allowed; allowed: a non-empty string")
+        if self.sweep is None or not self.sweep.params:
+            raise ConfigError(f"{where}: sweep.params: missing; allowed: a mapping of parameter: values")
 
 
 @dataclass(frozen=True)
 class SweepSpec:
-    """A validated sweep."""
+    """A validated sweep. `scenario` and `vehicle` already carry the fixed values."""
 
     name: str
     scenario: Scenario
     vehicle: Vehicle
     fixed: dict[str, float]
     method: str
-    params: dict[str, Any]
+    params: dict[str, Any]  # grid/zip: name -> values; random/lhs: name -> (low, high, log)
     n: int | None
     seed: int
     output: Path
@@ -75,8 +107,85 @@ class SweepSpec:
     chunk_size: int | None
     backend: str
     precision: str
-    solver: dict[str, Any]  # MuJoCo solver options: type, iterations, ls_iterations, tolerance
+    solver: SolverOptions
     raw: dict[str, Any]  # the YAML as read, for the Parquet metadata
+    where: str = "spec"  # the file it came from, for messages
+
+    def table(self) -> VariantTable:
+        """The variants, counted without being built."""
+        return VariantTable(self)
+
+    def stats_config(self) -> StatsConfig:
+        """The reduction's settings: steps, window and filter."""
+        sc = self.scenario
+        return StatsConfig.make(sc.time_step, sc.n_steps, self.window, lowpass_s=self.lowpass_s)
+
+    def variant(self, row: Any) -> tuple[Vehicle, Scenario]:
+        """The vehicle and scenario of one variant (a row of the variant or result table)."""
+        return variant_setup(self.vehicle, self.scenario, {k: float(row[k]) for k in self.params})
+
+
+class VariantTable:
+    """The variant table of a spec: `variant` and one column per swept parameter, built on demand.
+
+    Grid rows are unravelled from their index; random and LHS rows are drawn from RNGs
+    seeded by (seed, block), so any chunk is built alone and equals the same rows of the
+    whole table."""
+
+    def __init__(self, spec: SweepSpec):
+        self.spec = spec
+        self.names = list(spec.params)
+        if spec.method == "grid":
+            self.sizes = [len(spec.params[k]) for k in self.names]
+            self.n = math.prod(self.sizes)
+        elif spec.method == "zip":
+            self.n = len(next(iter(spec.params.values())))
+        else:
+            self.n = int(spec.n)
+        self._perm: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return self.n
+
+    def _uniform(self, start: int, stop: int) -> np.ndarray:
+        """(stop - start, d) uniforms in [0, 1), the same whatever the chunking."""
+        d = len(self.names)
+        out = []
+        for b in range(start // RNG_BLOCK, (stop - 1) // RNG_BLOCK + 1):
+            lo = b * RNG_BLOCK
+            u = np.random.default_rng([self.spec.seed, b]).random((min(RNG_BLOCK, self.n - lo), d))
+            out.append(u[max(start - lo, 0) : stop - lo])
+        return np.concatenate(out) if out else np.empty((0, d))
+
+    def rows(self, start: int = 0, stop: int | None = None) -> pd.DataFrame:
+        """Rows [start, stop) of the table."""
+        stop = self.n if stop is None else min(stop, self.n)
+        start = min(start, stop)
+        spec, idx = self.spec, np.arange(start, stop, dtype=np.int64)
+        if spec.method == "grid":
+            pos = np.unravel_index(idx, self.sizes) if len(idx) else [idx] * len(self.names)
+            data = {k: np.asarray(spec.params[k], float)[p] for k, p in zip(self.names, pos, strict=True)}
+        elif spec.method == "zip":
+            data = {k: np.asarray(spec.params[k], float)[start:stop] for k in self.names}
+        else:
+            u = self._uniform(start, stop)
+            if spec.method == "lhs":  # one sample in each of n strata per dimension, strata shuffled
+                if self._perm is None:
+                    rng = np.random.default_rng([spec.seed, 2**32 - 1])
+                    self._perm = np.stack([rng.permutation(self.n) for _ in self.names])
+                u = (self._perm[:, start:stop].T + u) / self.n
+            data = {}
+            for j, k in enumerate(self.names):
+                lo, hi, log = spec.params[k]
+                data[k] = np.exp(np.log(lo) + u[:, j] * (np.log(hi) - np.log(lo))) if log else lo + u[:, j] * (hi - lo)
+        frame = pd.DataFrame(data, columns=self.names)
+        frame.insert(0, "variant", idx)
+        return frame
+
+
+def variant_table(spec: SweepSpec) -> pd.DataFrame:
+    """The whole variant table as a DataFrame (for small sweeps; large ones use `spec.table()`)."""
+    return spec.table().rows()
 
 
 def _values(v: Any, where: str, meta: dict) -> np.ndarray:
@@ -95,41 +204,59 @@ def _values(v: Any, where: str, meta: dict) -> np.ndarray:
     return np.array([check_number(v, meta, where)])
 
 
+def _bounds(v: Any, method: str, where: str, meta: dict) -> tuple[float, float, bool]:
+    """(low, high, log) of a random or LHS parameter."""
+    if not isinstance(v, dict) or not {"low", "high"} <= set(v) or set(v) - {"low", "high", "log"}:
+        raise ConfigError(f"{where}: {v!r} is not allowed; allowed for {method}: {{low, high, log}}")
+    lo, hi = check_number(v["low"], meta, where), check_number(v["high"], meta, where)
+    log = v.get("log", False)
+    if not isinstance(log, bool):
+        raise ConfigError(f"{where}.log: {log!r} is not true or false")
+    if hi < lo or (log and lo <= 0):
+        raise ConfigError(f"{where}: {v!r} is not allowed; allowed: low <= high (and low > 0 with log)")
+    return lo, hi, log
+
+
+def _scenario(sc: Any, where: str) -> Scenario:
+    if isinstance(sc, dict):
+        return scenario_from_mapping(sc, f"{where}: scenario")
+    if isinstance(sc, str):
+        try:
+            return load_scenario(sc)
+        except ConfigError as err:
+            raise ConfigError(f"{where}: scenario: {err}") from None
+    raise ConfigError(f"{where}: scenario: {sc!r} is not allowed; allowed: a scenario name or mapping")
+
+
+def _vehicle(veh: Any, where: str) -> Vehicle:
+    if veh is None:
+        return Vehicle()
+    if isinstance(veh, dict):
+        return vehicle_from_mapping(veh, f"{where}: vehicle")
+    if isinstance(veh, str):
+        path = Path(veh) if Path(veh).is_absolute() else Path(where).parent / veh
+        return load_vehicle(path if path.exists() else veh)
+    raise ConfigError(f"{where}: vehicle: {veh!r} is not allowed; allowed: null, a YAML path or a mapping")
+
+
+def check_run(scenario: Scenario, window: tuple[float, float] | None, where: str) -> None:
+    """Refuse a run that cannot give valid statistics: no steps, or a window outside the run or too short."""
+    scenario.validate(where)
+    try:
+        StatsConfig.make(scenario.time_step, scenario.n_steps, window)
+    except ConfigError as err:
+        raise ConfigError(f"{where}: {err}") from None
+
+
 def load_spec(path: str | Path) -> SweepSpec:
     """Read and validate a sweep YAML; every error is one ConfigError line."""
-    raw = load_yaml(path)
-    return spec_from_mapping(raw, str(path))
+    return spec_from_mapping(load_yaml(path), str(path))
 
 
 def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
-    for k in raw:
-        if k not in TOP_KEYS:
-            raise ConfigError(
-                f"{where}: {k}: unknown key {k!r}{did_you_mean(k, TOP_KEYS)}; allowed keys: {', '.join(TOP_KEYS)}"
-            )
-    name = raw.get("name")
-    if not isinstance(name, str) or not name:
-        raise ConfigError(f"{where}: name: {name!r} is not allowed; allowed: a non-empty string")
-    sc = raw.get("scenario", "straight_line")
-    if isinstance(sc, dict):
-        scenario = scenario_from_mapping(sc, f"{where}: scenario")
-    elif isinstance(sc, str):
-        try:
-            scenario = load_scenario(sc)
-        except ConfigError as err:
-            raise ConfigError(f"{where}: scenario: {err}") from None
-    else:
-        raise ConfigError(f"{where}: scenario: {sc!r} is not allowed; allowed: a scenario name or mapping")
-    veh = raw.get("vehicle")
-    if veh is None:
-        vehicle = Vehicle()
-    elif isinstance(veh, dict):
-        vehicle = vehicle_from_mapping(veh, f"{where}: vehicle")
-    elif isinstance(veh, str):
-        vpath = Path(veh) if Path(veh).is_absolute() else Path(where).parent / veh
-        vehicle = load_vehicle(vpath if vpath.exists() else veh)
-    else:
-        raise ConfigError(f"{where}: vehicle: {veh!r} is not allowed; allowed: null, a YAML path or a mapping")
+    """Validate a sweep mapping (as read from YAML) into a SweepSpec."""
+    top = from_mapping(SpecFile, raw, where)
+    scenario, vehicle = _scenario(top.scenario, where), _vehicle(top.vehicle, where)
     specs = parameter_specs(vehicle)
 
     def param_meta(key: str, at: str) -> dict:
@@ -139,146 +266,55 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
             )
         return specs[key]
 
-    fixed_raw = raw.get("fixed") or {}
-    if not isinstance(fixed_raw, dict):
-        raise ConfigError(f"{where}: fixed: {fixed_raw!r} is not a mapping of parameter: value")
-    fixed = {k: check_number(v, param_meta(k, "fixed"), f"{where}: fixed.{k}") for k, v in fixed_raw.items()}
-    sw = raw.get("sweep")
-    if not isinstance(sw, dict):
-        raise ConfigError(f"{where}: sweep: {sw!r} is not a mapping with method and params")
-    for k in sw:
-        if k not in ("method", "params", "n", "seed"):
-            raise ConfigError(f"{where}: sweep.{k}: unknown key {k!r}; allowed keys: method, params, n, seed")
-    method = sw.get("method", "grid")
-    if method not in METHODS:
-        raise ConfigError(f"{where}: sweep.method: {method!r} is not allowed; allowed: {', '.join(METHODS)}")
-    params_raw = sw.get("params")
-    if not isinstance(params_raw, dict) or not params_raw:
-        raise ConfigError(f"{where}: sweep.params: {params_raw!r} is not a non-empty mapping of parameters")
-    n = sw.get("n")
-    seed = sw.get("seed", 0)
+    fixed = {k: check_number(v, param_meta(k, "fixed"), f"{where}: fixed.{k}") for k, v in (top.fixed or {}).items()}
+    sw = top.sweep
     params: dict[str, Any] = {}
-    for k, v in params_raw.items():
-        meta = param_meta(k, "sweep.params")
-        at = f"{where}: sweep.params.{k}"
+    for k, v in sw.params.items():
+        meta, at = param_meta(str(k), "sweep.params"), f"{where}: sweep.params.{k}"
         if k in fixed:
             raise ConfigError(f"{at}: {k!r} is both fixed and swept; keep one")
-        if method in ("random", "lhs"):
-            if not isinstance(v, dict) or not {"low", "high"} <= set(v) or set(v) - {"low", "high", "log"}:
-                raise ConfigError(f"{at}: {v!r} is not allowed; allowed for {method}: {{low, high, log}}")
-            lo, hi = check_number(v["low"], meta, at), check_number(v["high"], meta, at)
-            log = bool(v.get("log", False))
-            if hi < lo or (log and lo <= 0):
-                raise ConfigError(f"{at}: {v!r} is not allowed; allowed: low <= high (and low > 0 with log)")
-            params[k] = (lo, hi, log)
-        else:
-            params[k] = _values(v, at, meta)
-    if method in ("random", "lhs"):
-        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-            raise ConfigError(f"{where}: sweep.n: {n!r} is not allowed; allowed: an integer >= 1 for {method}")
-        if isinstance(seed, bool) or not isinstance(seed, int):
-            raise ConfigError(f"{where}: sweep.seed: {seed!r} is not allowed; allowed: an integer")
-    if method == "zip" and len({len(v) for v in params.values()}) > 1:
+        if meta["acts"] == "static":
+            raise ConfigError(
+                f"{at}: {k} fixes the compiled program (array shapes, step count) and cannot be swept; "
+                "allowed: one value under fixed (run one sweep per value)"
+            )
+        params[k] = _bounds(v, sw.method, at, meta) if sw.method in ("random", "lhs") else _values(v, at, meta)
+    if sw.method in ("random", "lhs") and sw.n is None:
+        raise ConfigError(f"{where}: sweep.n: missing; allowed: an integer >= 1 for {sw.method}")
+    if sw.method == "zip" and len({len(v) for v in params.values()}) > 1:
         raise ConfigError(
             f"{where}: sweep.params: zip needs lists of one length; got { {k: len(v) for k, v in params.items()} }"
         )
-    window = raw.get("window")
-    if window is not None:
-        if not isinstance(window, list) or len(window) != 2:
-            raise ConfigError(f"{where}: window: {window!r} is not allowed; allowed: [start_s, end_s]")
-        window = (
-            check_number(window[0], {"ge": 0}, f"{where}: window"),
-            check_number(window[1], {"gt": 0}, f"{where}: window"),
+    if top.window is not None and top.window[1] <= top.window[0]:
+        raise ConfigError(
+            f"{where}: window: {list(top.window)!r} is not allowed; allowed: [start_s, end_s], start < end"
         )
-        if window[1] <= window[0]:
-            raise ConfigError(f"{where}: window: {list(window)!r} is not allowed; allowed: start < end")
-    chunk = raw.get("chunk_size")
-    if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, int) or chunk < 1):
-        raise ConfigError(f"{where}: chunk_size: {chunk!r} is not allowed; allowed: an integer >= 1")
-    backend = raw.get("backend", "auto")
-    if backend not in ("auto", "mjx", "mujoco"):
-        raise ConfigError(f"{where}: backend: {backend!r} is not allowed; allowed: auto, mjx, mujoco")
-    precision = raw.get("precision", "f32")
-    if precision not in ("f32", "f64"):
-        raise ConfigError(f"{where}: precision: {precision!r} is not allowed; allowed: f32, f64")
-    solver = raw.get("solver") or {}
-    if not isinstance(solver, dict):
-        raise ConfigError(f"{where}: solver: {solver!r} is not a mapping; allowed keys: {', '.join(SOLVER_KEYS)}")
-    for k, v in solver.items():
-        if k not in SOLVER_KEYS:
-            raise ConfigError(f"{where}: solver.{k}: unknown key {k!r}; allowed keys: {', '.join(SOLVER_KEYS)}")
-        kind = SOLVER_KEYS[k]
-        if isinstance(kind, tuple):
-            if v not in kind:
-                raise ConfigError(f"{where}: solver.{k}: {v!r} is not allowed; allowed: {', '.join(kind)}")
-        elif kind is int and (isinstance(v, bool) or not isinstance(v, int) or v < 1):
-            raise ConfigError(f"{where}: solver.{k}: {v!r} is not allowed; allowed: an integer >= 1")
-        elif kind is float:
-            check_number(v, {"gt": 0}, f"{where}: solver.{k}")
-    lowpass = check_number(raw.get("lowpass_s", 0.05), {"gt": 0, "unit": "s"}, f"{where}: lowpass_s")
-    output = Path(raw.get("output") or Path("results") / name)
-    scenario = dataclasses.replace(scenario, **{k: v for k, v in fixed.items() if k in STATIC})
+    vehicle, scenario = variant_setup(vehicle, scenario, fixed)
+    vehicle.validate(f"{where}: vehicle")
+    check_run(scenario, top.window, f"{where}: fixed" if set(fixed) & set(STATIC) else f"{where}: scenario")
     return SweepSpec(
-        name=name,
+        name=top.name,
         scenario=scenario,
         vehicle=vehicle,
         fixed=fixed,
-        method=method,
+        method=sw.method,
         params=params,
-        n=n,
-        seed=seed,
-        output=output,
-        window=window,
-        lowpass_s=lowpass,
-        chunk_size=chunk,
-        backend=backend,
-        precision=precision,
-        solver=solver,
+        n=sw.n,
+        seed=sw.seed,
+        output=Path(top.output or Path("results") / top.name),
+        window=top.window,
+        lowpass_s=top.lowpass_s,
+        chunk_size=top.chunk_size,
+        backend=top.backend,
+        precision=top.precision,
+        solver=top.solver,
         raw=raw,
+        where=where,
     )
-
-
-def variants(spec: SweepSpec) -> pd.DataFrame:
-    """The variant table: a `variant` id and one column per swept parameter, in a fixed order."""
-    names = list(spec.params)
-    if spec.method == "grid":
-        rows = list(itertools.product(*[spec.params[k] for k in names]))
-        data = np.array(rows, float).reshape(len(rows), len(names))
-    elif spec.method == "zip":
-        data = np.stack([spec.params[k] for k in names], axis=1).astype(float)
-    else:
-        rng = np.random.default_rng(spec.seed)
-        n, d = spec.n, len(names)
-        if spec.method == "random":
-            u = rng.random((n, d))
-        else:  # Latin hypercube: one sample in each of n strata per dimension, strata shuffled
-            u = (np.stack([rng.permutation(n) for _ in range(d)], axis=1) + rng.random((n, d))) / n
-        data = np.empty((n, d))
-        for j, k in enumerate(names):
-            lo, hi, log = spec.params[k]
-            data[:, j] = np.exp(np.log(lo) + u[:, j] * (np.log(hi) - np.log(lo))) if log else lo + u[:, j] * (hi - lo)
-    frame = pd.DataFrame(data, columns=names)
-    frame.insert(0, "variant", np.arange(len(frame), dtype=np.int64))
-    return frame
-
-
-def variant_setup(spec: SweepSpec, row: Any) -> tuple[Vehicle, Scenario]:
-    """The vehicle and scenario of one variant (a row of the variant or result table)."""
-    from batchveh.scenarios import numeric_fields
-    from batchveh.vehicle import numeric_paths, replace_path
-
-    values = {**spec.fixed, **{k: float(row[k]) for k in spec.params}}
-    scenario_keys = numeric_fields()
-    sc = dataclasses.replace(spec.scenario, **{k: v for k, v in values.items() if k in scenario_keys})
-    vehicle = spec.vehicle
-    for k, v in values.items():
-        if k in numeric_paths(vehicle):
-            vehicle = replace_path(vehicle, k, float(v))
-    return vehicle, sc
 
 
 def spec_of_result(path: str | Path) -> SweepSpec:
     """The spec a result directory was made from (from its file metadata)."""
-    from batchveh.io import metadata
+    from batchveh.results import metadata
 
     return spec_from_mapping(metadata(path)["spec"], f"{path} (metadata)")

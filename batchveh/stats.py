@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from batchveh.config import ConfigError
 from batchveh.vehicle import CORNERS, MOTORS
 
 CHANNELS = (*MOTORS, "drive_sum")  # 8 motors and the four-wheel drive-torque sum
@@ -31,7 +32,13 @@ N_CH = len(CHANNELS)
 STATUS = {0: "ok", 1: "diverged", 2: "flipped"}
 FLIP_DEG = 60.0  # roll or pitch beyond which the vehicle counts as flipped
 SLIP_LIMIT = 0.1  # |slip ratio| above which a variant is flagged as slipping
+MIN_WINDOW_STEPS = 5  # fewer steps in the steady window give no meaningful mean, RMS or percentile
 STEADY_ACCEL = 0.05  # m/s^2: |window_accel| below which the window counts as steady
+# Beyond these a state is diverged, whether or not it is still finite (MuJoCo's own check,
+# mjMAXVAL, is 1e10 on qpos, qvel and qacc; these are far past anything physical here)
+HUGE_TORQUE = 1e8  # N m
+HUGE_SPEED = 1e3  # m/s, chassis
+HUGE_POSITION = 1e6  # m
 
 
 @dataclass(frozen=True)
@@ -42,15 +49,30 @@ class StatsConfig:
     n_steps: int
     window_start: float  # s
     window_end: float  # s
-    wheel_radius: float = 0.195  # m, only for the slip ratio's rim speed
     lowpass_s: float = 0.05
     p95_samples: int = 256
 
     @staticmethod
     def make(dt: float, n_steps: int, window: tuple[float, float] | None = None, **kw: Any) -> StatsConfig:
+        """Settings for `n_steps` steps of `dt` s; the window defaults to the second half.
+
+        Raises ConfigError where the statistics could not be valid: no steps, a window
+        outside (0, total time], or fewer than MIN_WINDOW_STEPS steps in it."""
         total = dt * n_steps
+        if n_steps < 1:
+            raise ConfigError(f"total_time gives {n_steps} steps of {dt:g} s; allowed: at least one step")
         start, end = window if window is not None else (total / 2, total)
-        return StatsConfig(dt=dt, n_steps=n_steps, window_start=start, window_end=min(end, total), **kw)
+        if not 0 <= start < end <= total * (1 + 1e-9):
+            raise ConfigError(
+                f"window: [{start:g}, {end:g}] s is not allowed; allowed: 0 <= start < end <= total_time ({total:g} s)"
+            )
+        cfg = StatsConfig(dt=dt, n_steps=n_steps, window_start=start, window_end=min(end, total), **kw)
+        if cfg.window_steps < MIN_WINDOW_STEPS:
+            raise ConfigError(
+                f"window: [{start:g}, {end:g}] s holds {cfg.window_steps} steps of {dt:g} s; "
+                f"allowed: at least {MIN_WINDOW_STEPS} (a longer window or total_time, or a shorter time_step)"
+            )
+        return cfg
 
     @property
     def first(self) -> int:
@@ -74,14 +96,17 @@ class StatsConfig:
         return max(1, math.ceil(self.window_steps / self.stride))
 
 
-def sample(qpos, qvel, qfrc_actuator, ctrl, lay) -> dict[str, Any]:
+def sample(qpos, qvel, qfrc_actuator, ctrl, wheel_radius, lay) -> dict[str, Any]:
     """The quantities `update` folds, read from MuJoCo state arrays of any leading shape.
 
-    qpos, qvel, qfrc_actuator: (..., nq / nv); ctrl: (..., nu); lay: the vehicle's Layout.
+    qpos, qvel, qfrc_actuator: (..., nq / nv); ctrl: (..., nu); wheel_radius: the variant's
+    own wheel radius in m, broadcastable to the leading shape; lay: the vehicle's Layout.
     """
+    omega = qvel[..., lay.motor_dof[:4]]
     return {
         "tau": qfrc_actuator[..., lay.motor_dof],
-        "omega": qvel[..., lay.motor_dof[:4]],
+        "omega": omega,
+        "rim": omega.mean(-1) * wheel_radius,
         "alpha": qpos[..., lay.motor_qpos[4:]],
         "ref": ctrl[..., :8],
         "pos": qpos[..., 0:3],
@@ -116,6 +141,7 @@ def init(cfg: StatsConfig, batch: tuple[int, ...], xp=np, dtype=None) -> dict[st
         "bad": z(),
         "v_fwd": z(),
         "v_rim": z(),
+        "omega": z(),
         "speed_err": z(4),
         "speed_ref": z(4),
         "steer_err": z(4),
@@ -181,8 +207,12 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
     roll, pitch, yaw = _roll_pitch_yaw(s["quat"], xp)  # (..., B)
     out["roll"] = xp.maximum(c["roll"], xp.abs(roll).max(-1))
     out["pitch"] = xp.maximum(c["pitch"], xp.abs(pitch).max(-1))
-    finite = xp.all(xp.isfinite(tau), axis=(-2, -1)) & xp.all(xp.isfinite(s["pos"]), axis=(-2, -1))
-    out["bad"] = xp.maximum(c["bad"], xp.where(finite, 0.0, 1.0))
+    sane = (
+        xp.all(xp.abs(tau) < HUGE_TORQUE, axis=(-2, -1))  # False for NaN too
+        & xp.all(xp.abs(s["vel"]) < HUGE_SPEED, axis=(-2, -1))
+        & xp.all(xp.abs(s["pos"]) < HUGE_POSITION, axis=(-2, -1))
+    )
+    out["bad"] = xp.maximum(c["bad"], xp.where(sane, 0.0, 1.0))
     v_fwd = vel[..., 0] * xp.cos(yaw) + vel[..., 1] * xp.sin(yaw)
     out["v_fwd"] = c["v_fwd"] + (w * v_fwd).sum(-1)
     # least-squares trend of the forward speed over the window (t relative to its start)
@@ -190,7 +220,8 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
     out["tv"] = c["tv"] + (tw * v_fwd).sum(-1)
     out["t"] = c["t"] + tw.sum()
     out["tt"] = c["tt"] + (tw * tw).sum()
-    out["v_rim"] = c["v_rim"] + (w * s["omega"].mean(-1)).sum(-1) * cfg.wheel_radius
+    out["v_rim"] = c["v_rim"] + (w * s["rim"]).sum(-1)
+    out["omega"] = c["omega"] + (w * s["omega"].mean(-1)).sum(-1)
     out["speed_err"] = c["speed_err"] + (wk * (s["omega"] - s["ref"][..., :4])).sum(-2)
     out["speed_ref"] = c["speed_ref"] + (wk * s["ref"][..., :4]).sum(-2)
     steer_err = xp.where(inw[:, None], xp.abs(s["alpha"] - s["ref"][..., 4:]), 0.0).max(-2)
@@ -224,7 +255,7 @@ def finalize(c: dict[str, Any], cfg: StatsConfig, xp=np) -> dict[str, Any]:
     v_fwd, v_rim = c["v_fwd"] / nw, c["v_rim"] / nw
     moving = xp.abs(v_rim) > 1e-3
     cols["distance"] = c["distance"]
-    cols["wheel_speed"] = v_rim / cfg.wheel_radius
+    cols["wheel_speed"] = c["omega"] / nw
     cols["mean_speed"] = v_fwd
     cols["slip_ratio"] = xp.where(moving, 1.0 - v_fwd / xp.where(moving, v_rim, 1.0), 0.0)
     cols["slipping"] = xp.abs(cols["slip_ratio"]) > SLIP_LIMIT
@@ -242,5 +273,10 @@ def finalize(c: dict[str, Any], cfg: StatsConfig, xp=np) -> dict[str, Any]:
     cols["final_y"] = c["pose"][..., 1]
     cols["final_yaw_deg"] = xp.rad2deg(c["pose"][..., 2])
     flipped = (cols["max_roll_deg"] > FLIP_DEG) | (cols["max_pitch_deg"] > FLIP_DEG)
-    cols["status_code"] = xp.where(c["bad"] > 0, 1, xp.where(flipped, 2, 0))
+    # a statistic that is not finite can only come from a bad state: never report it as ok
+    finite = c["n"] > 0
+    for name in cols:
+        if name.startswith(CHANNELS) or name in ("distance", "mean_speed", "wheel_speed"):
+            finite = finite & xp.isfinite(cols[name])
+    cols["status_code"] = xp.where((c["bad"] > 0) | ~finite, 1, xp.where(flipped, 2, 0))
     return cols

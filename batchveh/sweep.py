@@ -4,29 +4,41 @@
     python -m batchveh.sweep sweeps/slope.yaml --backend mjx --limit 100 --out /tmp/s
     python -m batchveh.sweep sweeps/slope.yaml --resume      # after an interruption
 
-Exit codes: 0 done (all ok or some flagged), 2 bad spec or arguments (one line),
-3 results exist (give --resume or --overwrite), 130 interrupted (finished chunks kept).
+Exit codes: 0 done (all ok or some flagged), 2 bad spec, arguments or files (one
+line), 3 results exist (give --resume or --overwrite) or another sweep is writing
+there, 130 interrupted (finished chunks kept).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
+import os
 import platform
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from batchveh import io, stats
+from batchveh import stats
+from batchveh.batch import apply_solver, make_batch
 from batchveh.config import ConfigError
-from batchveh.spec import SweepSpec, load_spec, variants
-from batchveh.variants import apply_solver, make_batch, parameter_specs
+from batchveh.params import parameter_specs
+from batchveh.results import Locked, ResultFolder, load, part_table
+from batchveh.spec import MAX_VARIANTS, SweepSpec, load_spec
 
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_INTERRUPTED = 0, 2, 3, 130
+TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match it
+
+# Rough rates in variant-steps/s for the dry run's estimate, measured (benchmarks/RESULTS.md):
+# MuJoCo C 1.6e5 on 2 threads; MJX on the CPU 1.0e4 on 2 cores; MJX on one H200 8.5e6 (cylinder wheels)
+RATE_MUJOCO_PER_THREAD = 8.0e4
+RATE_MJX_CPU_PER_CORE = 5.0e3
+RATE_MJX_PER_GPU = 8.0e6
+COMPILE_S = {"mujoco": 2.0, "mjx-cpu": 60.0, "mjx-gpu": 15.0}
 
 
 def _versions() -> dict[str, str]:
@@ -49,23 +61,29 @@ def _device(backend: str) -> str:
 
         devs = jax.devices()
         return f"{len(devs)} x {devs[0].device_kind} ({devs[0].platform})"
-    import os
-
     return f"{os.cpu_count()} CPU threads ({platform.processor() or platform.machine()})"
 
 
 def enable_compile_cache() -> None:
-    """JAX's persistent compilation cache, so a repeated sweep does not recompile.
-
-    The folder is $BATCHVEH_CACHE or ~/.cache/batchveh/jax.
-    """
-    import os
-
+    """JAX's persistent compilation cache, so a repeated sweep does not recompile (process-wide:
+    the CLI's `main` calls it). The folder is $BATCHVEH_CACHE or ~/.cache/batchveh/jax."""
     import jax
 
     path = os.environ.get("BATCHVEH_CACHE", os.path.join(os.path.expanduser("~"), ".cache", "batchveh", "jax"))
     jax.config.update("jax_compilation_cache_dir", path)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+
+
+def count_variants(spec: SweepSpec, limit: int | None = None, max_variants: int = MAX_VARIANTS) -> int:
+    """The number of variants to run; ConfigError above `max_variants`."""
+    n = len(spec.table())
+    n = n if limit is None else min(limit, n)
+    if n > max_variants:
+        raise ConfigError(
+            f"{spec.where}: sweep: {n:,} variants exceed the limit of {max_variants:,}; allowed: fewer values, "
+            "--limit N, or --max-variants N to raise the limit"
+        )
+    return n
 
 
 def run_sweep(
@@ -77,109 +95,91 @@ def run_sweep(
     overwrite: bool = False,
     limit: int | None = None,
     chunk_size: int | None = None,
+    max_variants: int = MAX_VARIANTS,
     progress: bool = True,
+    report: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
     """Run `spec`, writing part files under `out`; return a summary dict.
 
-    Raises FileExistsError where results exist and neither resume nor overwrite is given.
-    """
-    from batchveh.engine import make_backend, resolve_backend
+    Raises FileExistsError where results exist and neither resume nor overwrite is given,
+    results.Locked where another sweep writes there, ConfigError for a bad spec or setting.
+    `report` receives notes for the user (damaged parts that run again)."""
+    from tqdm.auto import tqdm
 
-    out = Path(out or spec.output)
-    table = variants(spec)
-    if limit is not None:
-        table = table.iloc[:limit]
+    from batchveh.engines import make_engine, resolve_backend
+
+    n = count_variants(spec, limit, max_variants)
+    table = spec.table()
     backend = resolve_backend(backend or spec.backend)
-    if spec.precision == "f64":
-        import jax
-
-        jax.config.update("jax_enable_x64", True)
-    sc = spec.scenario
-    cfg = stats.StatsConfig.make(
-        sc.time_step, sc.n_steps, spec.window, wheel_radius=spec.vehicle.wheel.radius, lowpass_s=spec.lowpass_s
-    )
-    enable_compile_cache()
-    engine = make_backend(
+    cfg = spec.stats_config()
+    engine = make_engine(
         backend,
-        sc,
+        spec.scenario,
         cfg,
         chunk_size or spec.chunk_size,
-        n_variants=len(table),
-        solver_impl=spec.solver.get("impl", "auto"),
+        n_variants=n,
+        precision=spec.precision,
+        solver_impl=spec.solver.impl,
     )
     chunk = engine.chunk_size
     manifest = {
         "spec": spec.raw,
-        "n_variants": len(table),
+        "n_variants": n,
         "chunk_size": chunk,
         "backend": backend,
         "precision": spec.precision,
         "solver_impl": engine.solver_impl,
+        "table_version": TABLE_VERSION,
     }
-    existing = io.parts(out) if out.exists() else []
-    if (existing or (out / io.MANIFEST).exists()) and not resume:
-        if not overwrite:
-            raise FileExistsError(f"{out} holds results; give --resume to continue or --overwrite to replace them")
-        io.remove_results(out)  # only what a sweep writes: never the folder's other files
-        existing = []
-    if resume and (out / io.MANIFEST).exists():
-        old = json.loads((out / io.MANIFEST).read_text())
-        if {k: old.get(k) for k in manifest} != json.loads(json.dumps(manifest)):
-            raise ConfigError(
-                f"{out}: the results there come from another spec, chunk size or backend; "
-                "give --overwrite to replace them"
-            )
-    out.mkdir(parents=True, exist_ok=True)
-    (out / io.MANIFEST).write_text(json.dumps(manifest, indent=1))
+    folder = ResultFolder(out or spec.output)
     specs = parameter_specs(spec.vehicle)
-    param_units = {k: specs[k].get("unit", "") for k in table.columns if k in specs}
-    fixed = {k: np.full(len(table), v) for k, v in spec.fixed.items() if k not in ("time_step", "total_time")}
-    n_chunks = -(-len(table) // chunk)
-    done = {int(p.stem.split("-")[1]) for p in existing}
-    todo = [c for c in range(n_chunks) if c not in done]
+    param_units = {k: specs[k].get("unit", "") for k in spec.params}
     base_meta = {
         "spec": spec.raw,
         "versions": _versions(),
         "device": _device(backend),
         "backend": backend,
+        "solver_impl": engine.solver_impl,
         "precision": spec.precision,
         "window_s": [cfg.window_start, cfg.window_end],
         "lowpass_s": cfg.lowpass_s,
         "p95_stride": cfg.stride,
-        "time_step": sc.time_step,
-        "total_time": sc.total_time,
+        "time_step": spec.scenario.time_step,
+        "total_time": spec.scenario.total_time,
     }
-    from tqdm.auto import tqdm
-
-    bar = tqdm(
-        total=len(table),
-        initial=len(table) - sum(min(chunk, len(table) - c * chunk) for c in todo),
-        unit="variant",
-        desc=spec.name,
-        disable=not progress,
-        dynamic_ncols=True,
-    )
-    t_start = time.perf_counter()
-    ran = 0
-    for c in todo:
-        rows = table.iloc[c * chunk : (c + 1) * chunk]
-        t0 = time.perf_counter()
-        cols_in = {k: rows[k].to_numpy() for k in rows.columns if k != "variant"}
-        cols_in.update({k: v[: len(rows)] for k, v in fixed.items()})
-        batch = make_batch(spec.vehicle, sc, cols_in)
-        apply_solver(batch.model, spec.solver)
-        res = engine.run(batch)
-        wall = time.perf_counter() - t0
-        cols = {k: np.asarray(v) for k, v in res.items() if k != "status_code"}
-        cols["status"] = [stats.STATUS[int(s)] for s in np.asarray(res["status_code"])]
-        frame = pd.concat([rows.reset_index(drop=True), pd.DataFrame(cols)], axis=1)
-        meta = {**base_meta, "chunk": c, "chunk_wall_s": wall, "compile_s": engine.compile_s}
-        io.write_part(frame, out / f"part-{c:05d}.parquet", param_units, meta)
-        ran += len(rows)
-        bar.update(len(rows))
-    bar.close()
-    wall = time.perf_counter() - t_start
-    result = io.load(out)
+    n_chunks = -(-n // chunk)
+    with folder.lock():
+        done, bad = folder.open(manifest, resume=resume, overwrite=overwrite)
+        for name, why in bad.items():
+            (report or (lambda _: None))(f"{folder.path / name}: {why}; its chunk runs again")
+        todo = [c for c in range(n_chunks) if c not in done]
+        size = {c: min(chunk, n - c * chunk) for c in range(n_chunks)}
+        bar = tqdm(
+            total=n,
+            initial=n - sum(size[c] for c in todo),
+            unit="variant",
+            desc=spec.name,
+            disable=not progress,
+            dynamic_ncols=True,
+        )
+        t_start = time.perf_counter()
+        ran = 0
+        for c in todo:
+            rows = table.rows(c * chunk, c * chunk + size[c])
+            t0 = time.perf_counter()
+            batch = make_batch(spec.vehicle, spec.scenario, {k: rows[k].to_numpy() for k in spec.params}, spec.params)
+            apply_solver(batch.model, spec.solver)
+            res = engine.run(batch)
+            cols = {k: np.asarray(v) for k, v in res.items() if k != "status_code"}
+            cols["status"] = [stats.STATUS[int(s)] for s in np.asarray(res["status_code"])]
+            frame = pd.concat([rows.reset_index(drop=True), pd.DataFrame(cols)], axis=1)
+            meta = {**base_meta, "chunk": c, "chunk_wall_s": time.perf_counter() - t0, "compile_s": engine.compile_s}
+            folder.write_part(c, part_table(frame, param_units, meta))
+            ran += len(rows)
+            bar.update(len(rows))
+        bar.close()
+        wall = time.perf_counter() - t_start
+    result = load(folder.path, columns=["status", "slipping"])
     counts = result["status"].value_counts().to_dict()
     return {
         "rows": len(result),
@@ -191,60 +191,112 @@ def run_sweep(
         "wall_s": wall,
         "compile_s": engine.compile_s,
         "compiles": engine.compiles,
-        "variant_steps_per_s": ran * sc.n_steps / wall if wall > 0 else 0.0,
-        "out": out,
+        "variant_steps_per_s": ran * cfg.n_steps / wall if wall > 0 else 0.0,
+        "out": folder.path,
         "backend": backend,
         "device": base_meta["device"],
+        "engine_warnings": list(getattr(engine, "warnings", [])),
+        "folder": folder,
     }
 
 
-def dry_run(spec: SweepSpec, limit: int | None, backend: str) -> str:
-    """Variant count and a rough memory and time estimate, without simulating."""
-    from batchveh.engine import resolve_backend
+def estimate(backend: str, variant_steps: int) -> tuple[float, str]:
+    """(seconds, on what) for `variant_steps` on the backend and the devices this process sees."""
+    from batchveh.engines import has_gpu
 
-    n = len(variants(spec))
-    if limit is not None:
-        n = min(limit, n)
+    if backend == "mujoco":
+        from batchveh.engines.mujoco import default_threads
+
+        threads = default_threads()
+        rate, where, compile_s = RATE_MUJOCO_PER_THREAD * threads, f"{threads} CPU threads", COMPILE_S["mujoco"]
+    elif has_gpu():
+        import jax
+
+        gpus = len(jax.devices())
+        rate, where, compile_s = RATE_MJX_PER_GPU * gpus, f"{gpus} GPU", COMPILE_S["mjx-gpu"]
+    else:
+        cores = os.cpu_count() or 1
+        rate, where, compile_s = RATE_MJX_CPU_PER_CORE * cores, f"{cores} CPU cores", COMPILE_S["mjx-cpu"]
+    return compile_s + variant_steps / rate, f"{backend} on {where}, about {rate:.2g} variant-steps/s"
+
+
+def dry_run(spec: SweepSpec, limit: int | None, backend: str, max_variants: int = MAX_VARIANTS) -> str:
+    """Variant count and a rough memory and time estimate, without building the variants."""
+    from batchveh.engines import resolve_backend
+
+    n = count_variants(spec, limit, max_variants)
     backend = resolve_backend(backend)
     steps = spec.scenario.n_steps
-    # variant-steps/s measured here: mujoco.batch on 2 CPU threads ~1e5; MJX on one H100/H200 is higher
-    rate = 1.0e5 if backend == "mujoco" else 2.0e6
-    mem_mb = n * 4e-3 if backend == "mujoco" else min(n, 8192) * 0.2
+    seconds, basis = estimate(backend, n * steps)
+    mem_mb = min(n, 1024) * 0.05 + 200 if backend == "mujoco" else min(n, 131072) * 0.02 + 500
     return (
-        f"{spec.name}: {n} variants x {steps} steps on {backend}; about {n * steps / rate:.0f} s "
-        f"and {mem_mb:.0f} MB; results would go to {spec.output}"
+        f"{spec.name}: {n:,} variants x {steps:,} steps; about {_duration(seconds)} ({basis}) "
+        f"and {mem_mb:,.0f} MB; results would go to {spec.output}"
     )
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def _positive(flag: str) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = 0
+        if value < 1:
+            raise argparse.ArgumentTypeError(f"{text!r} is not allowed; allowed: an integer >= 1")
+        return value
+
+    parse.__name__ = flag
+    return parse
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # one line and exit 2, like every other input error
+        self.exit(EXIT_INPUT, f"error: {message} (see --help)\n")
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="python -m batchveh.sweep",
         description=__doc__.split("\n\n")[0],
-        epilog="Exit codes: 0 done, 2 bad spec, 3 results exist, 130 interrupted. The spec format is in README.md.",
+        epilog="Exit codes: 0 done, 2 bad spec, argument or file, 3 results exist or another sweep writes "
+        "there, 130 interrupted. The spec format is in README.md.",
     )
     parser.add_argument("spec", help="sweep YAML, e.g. sweeps/slope.yaml")
-    parser.add_argument("--out", type=Path, help="result directory (default: the spec's output)")
+    parser.add_argument("--out", type=Path, help="result folder (default: the spec's output)")
     parser.add_argument(
         "--backend",
         choices=("auto", "mjx", "mujoco"),
-        help="auto: mjx when JAX sees a GPU, else mujoco (MuJoCo C on all CPU threads)",
+        help="auto: mjx when JAX sees a GPU, else mujoco (MuJoCo C on the CPU threads)",
     )
     parser.add_argument("--resume", action="store_true", help="keep finished chunks and run the rest")
     parser.add_argument("--overwrite", action="store_true", help="delete existing results first")
     parser.add_argument("--dry-run", action="store_true", help="print the variant count and estimates, then stop")
-    parser.add_argument("--limit", type=int, help="run only the first N variants")
-    parser.add_argument("--chunk-size", type=int, help="variants per chunk (default: by backend)")
+    parser.add_argument("--limit", type=_positive("limit"), help="run only the first N variants")
+    parser.add_argument("--chunk-size", type=_positive("chunk size"), help="variants per chunk (default: by backend)")
+    parser.add_argument(
+        "--max-variants",
+        type=_positive("max variants"),
+        default=MAX_VARIANTS,
+        help=f"refuse sweeps larger than this (default {MAX_VARIANTS:,})",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.add_argument("--plots", action="store_true", help="also write envelope/heatmap PNGs into the results")
     args = parser.parse_args(argv)
     try:
         spec = load_spec(args.spec)
-        if args.limit is not None and args.limit < 1:
-            raise ConfigError(f"--limit: {args.limit} is not allowed; allowed: an integer >= 1")
         if args.dry_run:
-            print(dry_run(spec, args.limit, args.backend or spec.backend))
+            print(dry_run(spec, args.limit, args.backend or spec.backend, args.max_variants))
             return EXIT_OK
-        summary = run_sweep(
+        enable_compile_cache()
+        s = run_sweep(
             spec,
             out=args.out,
             backend=args.backend,
@@ -252,23 +304,30 @@ def main(argv: list[str] | None = None) -> int:
             overwrite=args.overwrite,
             limit=args.limit,
             chunk_size=args.chunk_size,
+            max_variants=args.max_variants,
             progress=not args.quiet,
+            report=lambda msg: print(f"note: {msg}", file=sys.stderr),
         )
+        if args.plots:
+            from batchveh.plot import sweep_figures
+
+            figs = sweep_figures(load(s["out"]), spec.name, s["out"], swept=list(spec.params))
+            s["folder"].record_files(figs)
+            print("figures: " + ", ".join(str(p) for p in figs))
     except ConfigError as err:
         print(f"error: {err}", file=sys.stderr)
         return EXIT_INPUT
-    except FileExistsError as err:
+    except (FileExistsError, Locked) as err:
         print(f"error: {err}", file=sys.stderr)
         return EXIT_EXISTS
+    except OSError as err:
+        print(f"error: {err.filename or args.out or 'the output'}: {err.strerror or err}", file=sys.stderr)
+        return EXIT_INPUT
     except KeyboardInterrupt:
         print("\ninterrupted: finished chunks are kept; run again with --resume", file=sys.stderr)
         return EXIT_INTERRUPTED
-    s = summary
-    if args.plots:
-        from batchveh.plot import sweep_figures
-
-        figs = sweep_figures(io.load(s["out"]), spec.name, s["out"], swept=list(spec.params))
-        print("figures: " + ", ".join(str(p) for p in figs))
+    if s["engine_warnings"]:
+        print(f"MuJoCo reported unstable simulations (marked diverged), e.g.: {s['engine_warnings'][0]}")
     print(
         f"{s['rows']} rows ({s['ran']} run now): {s['ok']} ok, {s['diverged']} diverged, {s['flipped']} flipped, "
         f"{s['slipping']} slipping | {s['wall_s']:.1f} s wall, compile {s['compile_s']:.1f} s, "

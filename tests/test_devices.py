@@ -9,14 +9,15 @@ _SCRIPT = """
 import json, sys
 import numpy as np
 import jax
-from batchveh import engine, stats
+from batchveh import stats
+from batchveh.batch import make_batch
+from batchveh.engines.mjx import MjxEngine
 from batchveh.scenarios import make_scenario
-from batchveh.variants import make_batch
 from batchveh.vehicle import Vehicle
 sc = make_scenario("straight_line", total_time=0.5, ramp_time=0.25, friction=0.9)
 cfg = stats.StatsConfig.make(sc.time_step, sc.n_steps)
 batch = make_batch(Vehicle(), sc, {"slope_deg": np.linspace(0, 15, 6)})
-be = engine.MjxBackend(sc, cfg, 6)
+be = MjxEngine(sc, cfg, 6)
 out = be.run(batch)
 print(json.dumps({"devices": len(jax.devices()), "chunk": be.chunk_size,
                   "sum": [float(x) for x in out["drive_sum_mean"]]}))

@@ -84,10 +84,10 @@ def test_sweep_figures_and_seed_figures_of_a_variant(sweep, tmp_path):
     df, out = sweep
     paths = plot.sweep_figures(df, "tiny", tmp_path)
     assert {p.name for p in paths} >= {"envelope.png", "heatmap.png"}
-    from batchveh.spec import spec_of_result, variant_setup
+    from batchveh.spec import spec_of_result
 
     row = df.iloc[7]
-    vehicle, scenario = variant_setup(spec_of_result(out), row)
+    vehicle, scenario = spec_of_result(out).variant(row)
     assert scenario.slope_deg == row.slope_deg and scenario.friction == row.friction
     res = batchveh.simulate(vehicle, scenario)
     np.testing.assert_allclose(res.stats["drive_sum_mean"], row.drive_sum_mean, rtol=1e-6)

@@ -1,0 +1,231 @@
+"""A chunk of variants -> the model fields that differ between them, and the control knobs.
+
+`make_batch` turns a table of values (one (n,) array per swept parameter) into
+
+- `fields`: the MjModel fields that differ between variants, (n, ...) each. Mass
+  and geometry parameters are applied by compiling the vehicle once per distinct
+  combination, so every derived constant (inertia, invweight0, acc0, subtree
+  mass, bounding radii) is MuJoCo's own: MJX has no mj_setConst.
+- `params`: the flat control knobs, (n,) each, read by the scenario's controls.
+
+Which fields vary follows from the swept names alone (`varying_fields`), never
+from one chunk's values, so every chunk of a sweep has the same structure and
+one compiled program serves them all.
+
+Gravity, friction and servo gains are written directly: they derive nothing.
+The friction is the ground geom's, which has priority over the wheels, so the
+value set is the value that acts (MuJoCo otherwise takes the larger of two).
+
+`mjx_model` turns a batch into an MJX model with batched fields and its
+`in_axes` tree: a sweep is a batched model plus an `in_axes` tree.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from batchveh.config import ConfigError, did_you_mean
+from batchveh.params import GAINS, STATIC, base_params, parameter_specs, structural
+from batchveh.scenarios import Scenario, gravity_vector
+from batchveh.vehicle import Vehicle, build_model, layout, replace_path
+
+# MjModel fields that are only fast-path flags: 0 ("not the same frame") is always correct
+SAMEFRAME = ("body_sameframe", "geom_sameframe", "site_sameframe")
+# two probes per structural parameter: value * scale + shift (both away from the base value)
+_PROBES = ((1.1, 0.011), (1.27, 0.023))
+
+
+def model_for(vehicle: Vehicle, scenario: Scenario) -> mujoco.MjModel:
+    """The MjModel of one vehicle and scenario, towing wheels included."""
+    m = build_model(
+        vehicle, time_step=scenario.time_step, friction=scenario.friction, gravity=tuple(scenario.gravity_vector())
+    )
+    gainprm, biasprm = _gains(m, base_params(vehicle, scenario), scenario.towing)
+    m.actuator_gainprm[:] = gainprm
+    m.actuator_biasprm[:] = biasprm
+    return m
+
+
+def _gains(m: mujoco.MjModel, p: Mapping[str, Any], towing) -> tuple[np.ndarray, np.ndarray]:
+    """actuator_gainprm, biasprm (n, nu, 10) for gains in p (arrays of shape (n,) or scalars)."""
+    lay = layout(m)
+    n = np.broadcast(*[np.asarray(p[k]) for k in GAINS]).shape
+    gain = np.broadcast_to(m.actuator_gainprm, (*n, *m.actuator_gainprm.shape)).copy()
+    bias = np.broadcast_to(m.actuator_biasprm, (*n, *m.actuator_biasprm.shape)).copy()
+    free = np.array([0.0 if tow else 1.0 for tow in towing])
+    for ids, key, col, scale in (
+        (lay.drive_vel_act, "motors.drive_kv", 2, free),
+        (lay.drive_pos_act, "motors.drive_kp", 1, free),
+        (lay.steer_pos_act, "motors.steer_kp", 1, 1.0),
+        (lay.steer_vel_act, "motors.steer_kv", 2, 1.0),
+    ):
+        k = np.asarray(p[key], float)[..., None] * scale
+        gain[..., ids, 0] = k
+        bias[..., ids, col] = -k
+    return gain, bias
+
+
+def apply_solver(m: mujoco.MjModel, solver: Any) -> None:
+    """Set MuJoCo solver options on `m` from `solver` (attributes or keys type, iterations,
+    ls_iterations, tolerance; None or absent keeps MuJoCo's)."""
+    get = solver.get if isinstance(solver, Mapping) else lambda k: getattr(solver, k, None)
+    if get("type") is not None:
+        m.opt.solver = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG}[get("type")]
+    for key in ("iterations", "ls_iterations", "tolerance"):
+        if get(key) is not None:
+            setattr(m.opt, key, get(key))
+
+
+def _numeric_fields(m: mujoco.MjModel) -> dict[str, np.ndarray]:
+    out = {}
+    for name in dir(m):
+        value = getattr(m, name, None)
+        if not name.startswith("_") and isinstance(value, np.ndarray) and value.dtype.kind in "fiu":
+            out[name] = value
+    return out
+
+
+_VARYING: dict[str, tuple[str, ...]] = {}
+
+
+def varying_fields(vehicle: Vehicle, scenario: Scenario, names: Sequence[str]) -> tuple[str, ...]:
+    """The MjModel fields that structural parameters `names` change, found from the names alone.
+
+    The vehicle is compiled at its base values and at two probes away from them; a field
+    that differs in either probe varies. Gains are excluded (written directly) and the
+    SAMEFRAME flags included (they are switched off in the batch's model)."""
+    key = repr((vehicle, scenario, tuple(names)))
+    if key not in _VARYING:
+        base = _numeric_fields(model_for(vehicle, scenario))
+        p = base_params(vehicle, scenario)
+        found: set[str] = set()
+        for scale, shift in _PROBES:
+            v = vehicle
+            for k in names:
+                v = replace_path(v, k, p[k] * scale + shift)
+            probe = _numeric_fields(model_for(v, scenario))
+            for name, values in probe.items():
+                if values.shape != base[name].shape:
+                    raise ConfigError(
+                        f"parameters {', '.join(names)} change the size of {name}; "
+                        "they cannot vary inside one compiled program"
+                    )
+                if not np.array_equal(values, base[name]):
+                    found.add(name)
+        found -= {"actuator_gainprm", "actuator_biasprm"}
+        _VARYING[key] = tuple(sorted(found | set(SAMEFRAME)))
+    return _VARYING[key]
+
+
+@dataclass
+class VariantBatch:
+    """n variants of one compiled structure."""
+
+    model: mujoco.MjModel  # the base model; fields below override it per variant
+    fields: dict[str, np.ndarray]  # MjModel field ('opt.gravity' for options) -> (n, ...)
+    params: dict[str, np.ndarray]  # control knobs -> (n,)
+    n: int
+
+
+def make_batch(
+    vehicle: Vehicle, scenario: Scenario, table: Mapping[str, Any], swept: Sequence[str] | None = None
+) -> VariantBatch:
+    """Build n variants from `table` (name -> (n,) values); unnamed parameters keep their base values.
+
+    `swept`: the names that vary over the whole sweep (default: the table's). They, not the
+    values, decide which fields the batch carries."""
+    specs = parameter_specs(vehicle)
+    for name in table:
+        if name not in specs:
+            raise ConfigError(f"unknown parameter {name!r}{did_you_mean(name, specs)}; allowed: {', '.join(specs)}")
+        if name in STATIC:
+            raise ConfigError(f"{name} fixes the compiled program and cannot be swept; give it under fixed")
+    lengths = {len(np.atleast_1d(v)) for v in table.values()}
+    if len(lengths) > 1:
+        raise ConfigError(f"parameter columns have different lengths: {sorted(lengths)}")
+    n = lengths.pop() if lengths else 1
+    swept = list(table if swept is None else swept)
+    params = {k: np.full(n, v, float) for k, v in base_params(vehicle, scenario).items()}
+    for k, v in table.items():
+        params[k] = np.broadcast_to(np.asarray(v, float), (n,)).copy()
+    model = model_for(vehicle, scenario)
+    lay = layout(model)
+    fields: dict[str, np.ndarray] = {}
+    struct = structural(swept, vehicle)
+    if struct:
+        _structural_fields(vehicle, scenario, model, params, struct, fields)
+    if "slope_deg" in swept or "gravity" in swept:
+        fields["opt.gravity"] = np.asarray(gravity_vector(params["gravity"], params["slope_deg"], xp=np))
+    if "friction" in swept:
+        fr = np.broadcast_to(model.geom_friction, (n, *model.geom_friction.shape)).copy()
+        fr[:, lay.ground_geom, 0] = params["friction"]
+        fields["geom_friction"] = fr
+    if any(k in swept for k in GAINS):
+        fields["actuator_gainprm"], fields["actuator_biasprm"] = _gains(model, params, scenario.towing)
+    return VariantBatch(model=model, fields=fields, params=params, n=n)
+
+
+def _structural_fields(vehicle, scenario, model, params, names, fields) -> None:
+    """Compile the vehicle once per distinct combination of `names`; batch the varying fields."""
+    varying = varying_fields(vehicle, scenario, names)
+    combos, index = np.unique(np.stack([params[k] for k in names], axis=1), axis=0, return_inverse=True)
+    models = []
+    for row in combos:
+        v = vehicle
+        for k, val in zip(names, row, strict=True):
+            v = replace_path(v, k, float(val))
+        try:
+            v.validate("vehicle")
+        except ConfigError as err:
+            raise ConfigError(f"variant with {dict(zip(names, row.tolist(), strict=True))}: {err}") from None
+        models.append(_numeric_fields(model_for(v, scenario)))
+    base = _numeric_fields(model)
+    for name in SAMEFRAME:
+        base[name][:] = 0  # fast-path flags: off for everyone
+    for name in base:
+        values = np.stack([m[name] for m in models])
+        if name in SAMEFRAME or name in ("actuator_gainprm", "actuator_biasprm"):
+            continue
+        if name in varying or not np.array_equal(values, np.broadcast_to(base[name], values.shape)):
+            fields[name] = values[index.ravel()]
+
+
+def import_mjx():
+    """mujoco.mjx, imported without the line it prints when warp-lang is missing."""
+    with contextlib.redirect_stdout(io.StringIO()):
+        from mujoco import mjx
+    return mjx
+
+
+def mjx_model(batch: VariantBatch) -> tuple[Any, Any]:
+    """The MJX model with batched fields, and its `in_axes` tree (0 where a field varies)."""
+    import jax
+    import jax.numpy as jnp
+
+    mjx = import_mjx()
+    m = mjx.put_model(batch.model)
+    axes = jax.tree_util.tree_map(lambda _: None, m)
+    opt, opt_axes = {}, {}
+    top, top_axes = {}, {}
+    for name, values in batch.fields.items():
+        if name.startswith("opt."):
+            opt[name[4:]], opt_axes[name[4:]] = jnp.asarray(values), 0
+            continue
+        if isinstance(getattr(m, name, None), np.ndarray):
+            raise ConfigError(
+                f"model field {name} is static in MJX, so the parameters that change it cannot vary on the "
+                "mjx backend; allowed: the mujoco backend, or fixed values"
+            )
+        if not hasattr(m, name):
+            continue  # a field MJX does not use (e.g. dof_length)
+        top[name], top_axes[name] = jnp.asarray(values), 0
+    m = m.replace(opt=m.opt.replace(**opt), **top)
+    axes = axes.replace(opt=axes.opt.replace(**opt_axes), **top_axes)
+    return m, axes

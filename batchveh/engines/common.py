@@ -1,0 +1,65 @@
+"""What the engines share: device checks, the 'auto' rules, chunk sizes and padding."""
+
+from __future__ import annotations
+
+import jax
+import numpy as np
+
+from batchveh.batch import VariantBatch
+
+GPU_CHUNK_MAX = 131072  # fused solver: 131k ran 8-11% faster than 65k on one H200 (benchmarks/RESULTS.md)
+GPU_BYTES_PER_VARIANT = 19e3  # measured peak device memory per variant (2.47 GB at 131072)
+CPU_CHUNK = {"mujoco": 1024, "mjx": 256}
+
+
+def has_gpu() -> bool:
+    """Whether JAX sees an accelerator."""
+    try:
+        return any(d.platform != "cpu" for d in jax.devices())
+    except RuntimeError:
+        return False
+
+
+def resolve_backend(name: str) -> str:
+    """'auto' is mjx when JAX sees a GPU, otherwise mujoco."""
+    if name == "auto":
+        return "mjx" if has_gpu() else "mujoco"
+    return name
+
+
+def resolve_solver_impl(name: str) -> str:
+    """The MJX engine's solver code: 'auto' is 'fused' (batchveh.solver) when JAX sees a GPU,
+    else 'mjx' (MJX's own: on the CPU it is faster and compiles sooner)."""
+    if name == "auto":
+        return "fused" if has_gpu() else "mjx"
+    return name
+
+
+def auto_chunk(name: str, n_variants: int | None) -> int:
+    """Variants per chunk: as many as fit (GPU) in equal chunks, with little padding."""
+    if name == "mujoco" or not has_gpu():
+        return CPU_CHUNK[name]
+    limit = GPU_CHUNK_MAX
+    mem = jax.devices()[0].memory_stats() or {}
+    if "bytes_limit" in mem:
+        limit = min(limit, int(0.5 * mem["bytes_limit"] / GPU_BYTES_PER_VARIANT))
+    limit *= len(jax.devices())
+    if not n_variants:
+        return limit
+    n_chunks = -(-n_variants // limit)
+    per = -(-n_variants // n_chunks)
+    return -(-per // 256) * 256
+
+
+def pad(batch: VariantBatch, size: int) -> VariantBatch:
+    """Repeat the last variant so the chunk has `size` variants (same compiled shape)."""
+    extra = size - batch.n
+    if extra <= 0:
+        return batch
+
+    def rep(a):
+        return np.concatenate([a, np.repeat(a[-1:], extra, axis=0)], axis=0)
+
+    return VariantBatch(
+        batch.model, {k: rep(v) for k, v in batch.fields.items()}, {k: rep(v) for k, v in batch.params.items()}, size
+    )

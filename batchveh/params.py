@@ -1,0 +1,77 @@
+"""The parameter registry: every sweepable name, its unit and bounds, and where it acts.
+
+A parameter is named as in the YAML: a scenario field (`slope_deg`, `friction`,
+`speed_kmh`, ...) or a vehicle path (`chassis.mass`, `wheel.radius`,
+`motors.drive_kv`, ...). Where it acts decides how a batch varies it:
+
+- `static`: fixes array shapes or the step count (`time_step`, `total_time`); one
+  compiled program each, so it can be fixed but not swept;
+- `model`: written straight into a model field that derives nothing (gravity,
+  the ground's friction, servo gains);
+- `structure`: mass and geometry; the vehicle is compiled by MuJoCo once per
+  distinct combination, so every derived constant is MuJoCo's own;
+- `control`: read by the scenario's controls, as a traced value.
+
+`base_params` and `variant_setup` go between the flat name -> value mapping and
+the (Vehicle, Scenario) pair. spec.py and batch.py both stand on this module.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from typing import Any, Literal
+
+from batchveh.scenarios import Scenario, numeric_fields
+from batchveh.vehicle import Vehicle, numeric_paths, replace_path
+
+Acts = Literal["static", "model", "structure", "control"]
+
+STATIC = ("time_step", "total_time")
+GAINS = ("motors.drive_kp", "motors.drive_kv", "motors.steer_kp", "motors.steer_kv")
+MODEL = ("slope_deg", "gravity", "friction", *GAINS)
+
+
+def parameter_specs(vehicle: Vehicle | None = None) -> dict[str, dict[str, Any]]:
+    """Every sweepable parameter name with its unit, bounds and `acts`."""
+    out = {k: {**meta, "acts": _acts(k, scenario=True)} for k, meta in numeric_fields().items()}
+    out.update(
+        {k: {**meta, "acts": _acts(k, scenario=False)} for k, meta in numeric_paths(vehicle or Vehicle()).items()}
+    )
+    return out
+
+
+def _acts(name: str, scenario: bool) -> Acts:
+    if name in STATIC:
+        return "static"
+    if name in MODEL:
+        return "model"
+    return "control" if scenario else "structure"
+
+
+def structural(names: Any, vehicle: Vehicle | None = None) -> list[str]:
+    """The names among `names` that need a rebuild of the vehicle (mass and geometry)."""
+    specs = parameter_specs(vehicle)
+    return [k for k in names if specs[k]["acts"] == "structure"]
+
+
+def base_params(vehicle: Vehicle, scenario: Scenario) -> dict[str, float]:
+    """The flat parameter mapping of one vehicle and scenario."""
+    out = {k: float(getattr(scenario, k)) for k in numeric_fields()}
+    for path in numeric_paths(vehicle):
+        obj = vehicle
+        for part in path.split("."):
+            obj = getattr(obj, part)
+        out[path] = float(obj)
+    return out
+
+
+def variant_setup(vehicle: Vehicle, scenario: Scenario, values: Mapping[str, Any]) -> tuple[Vehicle, Scenario]:
+    """The vehicle and scenario with `values` (parameter name -> number) applied."""
+    scenario_keys = numeric_fields()
+    scenario = dataclasses.replace(scenario, **{k: float(v) for k, v in values.items() if k in scenario_keys})
+    paths = numeric_paths(vehicle)
+    for k, v in values.items():
+        if k in paths:
+            vehicle = replace_path(vehicle, k, float(v))
+    return vehicle, scenario
