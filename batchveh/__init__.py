@@ -11,18 +11,33 @@ __version__ = "0.1.0"
 import os as _os
 
 
-def _choose_gl() -> None:
+def _choose_gl() -> str | None:
     """MuJoCo picks its OpenGL platform when first imported; a headless machine needs EGL.
 
-    Chosen only where libEGL can be found: MUJOCO_GL=egl without it breaks `import mujoco`.
-    """
+    EGL is chosen only where libEGL can be found: MUJOCO_GL=egl without it breaks `import
+    mujoco`. Where the user's own MUJOCO_GL names a library that is missing, `import
+    mujoco` would die in PyOpenGL, taking simulation down with rendering: mujoco is then
+    imported with OpenGL disabled (the user's value is restored right after), and the
+    problem is returned, for the renderer to report in one line."""
     import ctypes.util
 
-    if "MUJOCO_GL" not in _os.environ and not _os.environ.get("DISPLAY") and ctypes.util.find_library("EGL"):
+    gl = _os.environ.get("MUJOCO_GL", "").lower().strip()
+    if not gl and not _os.environ.get("DISPLAY") and ctypes.util.find_library("EGL"):
         _os.environ["MUJOCO_GL"] = "egl"
+        return None
+    lib = {"egl": "EGL", "osmesa": "OSMesa"}.get(gl)
+    if lib is None or ctypes.util.find_library(lib):
+        return None
+    user = _os.environ["MUJOCO_GL"]
+    _os.environ["MUJOCO_GL"] = "disable"
+    try:
+        import mujoco  # noqa: F401
+    finally:
+        _os.environ["MUJOCO_GL"] = user
+    return f"MUJOCO_GL={user} but lib{lib} is not installed"
 
 
-_choose_gl()
+GL_PROBLEM = _choose_gl()
 
 from batchveh.config import ConfigError  # noqa: E402  (after _choose_gl: these import mujoco)
 from batchveh.results import ResultError, load, metadata, units  # noqa: E402

@@ -61,10 +61,6 @@ class Motor:
         )
         return np.where(w <= self.max_speed, limit, 0.0)
 
-    def at_wheel(self, shaft_torque: float) -> float:
-        """Torque at the wheel (N m) for a motor-shaft torque."""
-        return shaft_torque * self.gear_ratio * self.efficiency
-
 
 def load_motors(path: str | Path) -> list[Motor]:
     """Motors from a YAML file with a `motors:` list (or one motor mapping)."""

@@ -38,7 +38,9 @@ def _renderer(m: mujoco.MjModel, height: int, width: int) -> mujoco.Renderer:
     except ValueError as err:  # the size exceeds the model's offscreen buffer
         raise ConfigError(f"--size: {width} x {height} is not allowed ({err})") from None
     except Exception as err:  # mujoco.FatalError, or AttributeError/ImportError from a missing GL library
-        msg = str(err).splitlines()[0] if str(err) else type(err).__name__
+        import batchveh
+
+        msg = batchveh.GL_PROBLEM or (str(err).splitlines()[0] if str(err) else type(err).__name__)
         raise ConfigError(NO_GL.format(err=msg)) from None
 
 

@@ -159,6 +159,7 @@ class ResultFolder:
         """Hold the folder's advisory lock; raise Locked naming the holder if another process has it."""
         import fcntl
 
+        self._check_folder()
         self.path.mkdir(parents=True, exist_ok=True)
         fd = os.open(self.path / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
         try:
@@ -172,6 +173,11 @@ class ResultFolder:
             yield
         finally:
             os.close(fd)  # closing releases the lock
+
+    def _check_folder(self) -> None:
+        for p in (self.path, *self.path.parents):
+            if p.exists() and not p.is_dir():
+                raise ConfigError(f"{self.path}: {p} exists and is not a folder; allowed: a folder path for the results")
 
     def verify(self) -> tuple[set[int], dict[str, str]]:
         """(finished chunks, {part name: what is wrong}) against the manifest's records."""
@@ -194,8 +200,7 @@ class ResultFolder:
 
         Raises FileExistsError where results exist and neither resume nor overwrite is
         given, and ConfigError where they come from another spec or setting."""
-        if self.path.exists() and not self.path.is_dir():
-            raise ConfigError(f"{self.path}: exists and is not a folder; allowed: a folder path for the results")
+        self._check_folder()
         old = self.read_manifest() if not overwrite else None
         existing = self.parts()
         if (existing or old is not None) and not resume and not overwrite:
@@ -278,7 +283,7 @@ def load(path: str | Path, columns: list[str] | None = None) -> pd.DataFrame:
         files = folder.parts()
         if not files:
             raise ResultError(f"{path}: no part-*.parquet files (not a sweep result, or nothing finished yet)")
-        if folder.read_manifest() is not None:
+        if "parts" in (folder.read_manifest() or {}):  # older results recorded no checksums
             _, bad = folder.verify()
             if bad:
                 name, why = next(iter(bad.items()))

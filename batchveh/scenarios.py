@@ -50,11 +50,7 @@ class Scenario:
 
     def validate(self, where: str = "scenario") -> None:
         """Raise ConfigError for an unknown kind or inconsistent fields."""
-        if self.kind not in SCENARIOS:
-            raise ConfigError(
-                f"{where}: scenario {self.kind!r} is not known{did_you_mean(self.kind, SCENARIOS)}; "
-                f"known: {', '.join(SCENARIOS)}"
-            )
+        check_kind(self.kind, f"{where}: ")
         if self.drive_law not in ("ramp", "unbounded_ramp", "smooth_step"):
             raise ConfigError(
                 f"{where}.drive_law: {self.drive_law!r} is not allowed; allowed: ramp, unbounded_ramp, smooth_step"
@@ -235,12 +231,17 @@ def control_schedule(sc: Scenario) -> Callable[[Mapping[str, Any], Any], Any]:
     return jax.vmap(controls_fn(sc), in_axes=(None, 0))
 
 
-def make_scenario(kind: str = "straight_line", **overrides: Any) -> Scenario:
-    """A registered scenario with its own defaults, then `overrides`."""
+def check_kind(kind: Any, prefix: str = "", what: str = "not known") -> None:
+    """Raise the one 'unknown scenario' ConfigError (with the closest name) unless `kind` is registered."""
     if kind not in SCENARIOS:
         raise ConfigError(
-            f"scenario {kind!r} is not known{did_you_mean(kind, SCENARIOS)}; known: {', '.join(SCENARIOS)}"
+            f"{prefix}scenario {kind!r} is {what}{did_you_mean(kind, SCENARIOS)}; known: {', '.join(SCENARIOS)}"
         )
+
+
+def make_scenario(kind: str = "straight_line", **overrides: Any) -> Scenario:
+    """A registered scenario with its own defaults, then `overrides`."""
+    check_kind(kind)
     sc = Scenario(kind=kind, **{**SCENARIOS[kind][1], **overrides})
     sc.validate()
     return sc
@@ -250,10 +251,7 @@ def scenario_from_mapping(data: Mapping[str, Any], where: str) -> Scenario:
     """Build a Scenario from a mapping whose `kind` (or `name`) picks the registry entry."""
     data = dict(data)
     kind = data.pop("kind", data.pop("name", "straight_line"))
-    if kind not in SCENARIOS:
-        raise ConfigError(
-            f"{where}: scenario {kind!r} is not known{did_you_mean(kind, SCENARIOS)}; known: {', '.join(SCENARIOS)}"
-        )
+    check_kind(kind, f"{where}: ")
     if isinstance(data.get("gravity"), str):
         g = data["gravity"].lower()
         if g not in GRAVITY_PRESETS:
@@ -268,11 +266,7 @@ def scenario_from_mapping(data: Mapping[str, Any], where: str) -> Scenario:
 def load_scenario(name_or_path: str | Path) -> Scenario:
     """A registered scenario by name, or a scenario YAML file."""
     s = str(name_or_path)
-    if s in SCENARIOS:
-        return make_scenario(s)
-    if s.endswith((".yaml", ".yml")) or Path(s).exists():
+    if s not in SCENARIOS and (s.endswith((".yaml", ".yml")) or Path(s).exists()):
         return scenario_from_mapping(load_yaml(s), s)
-    raise ConfigError(
-        f"scenario {s!r} is neither a known scenario nor a YAML file{did_you_mean(s, SCENARIOS)}; "
-        f"known: {', '.join(SCENARIOS)}"
-    )
+    check_kind(s, what="neither a known scenario nor a YAML file")
+    return make_scenario(s)

@@ -35,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from batchveh.config import ConfigError, check_number, did_you_mean, field, from_mapping, load_yaml
-from batchveh.params import STATIC, parameter_specs, variant_setup
+from batchveh.params import parameter_specs, variant_setup
 from batchveh.scenarios import Scenario, load_scenario, scenario_from_mapping
 from batchveh.stats import StatsConfig
 from batchveh.vehicle import Vehicle, load_vehicle, vehicle_from_mapping
@@ -291,7 +291,7 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
         )
     vehicle, scenario = variant_setup(vehicle, scenario, fixed)
     vehicle.validate(f"{where}: vehicle")
-    check_run(scenario, top.window, f"{where}: fixed" if set(fixed) & set(STATIC) else f"{where}: scenario")
+    check_run(scenario, top.window, where)
     return SweepSpec(
         name=top.name,
         scenario=scenario,

@@ -267,8 +267,14 @@ def mjcf(
 
 
 def build_model(v: Vehicle, **kw: Any) -> mujoco.MjModel:
-    """Compile the vehicle into an MjModel; keyword arguments go to `mjcf`."""
-    return mujoco.MjModel.from_xml_string(mjcf(v, **kw))
+    """Compile the vehicle into an MjModel; keyword arguments go to `mjcf`.
+
+    A vehicle MuJoCo refuses (a mass or size it cannot represent) is one ConfigError line."""
+    try:
+        return mujoco.MjModel.from_xml_string(mjcf(v, **kw))
+    except ValueError as err:
+        msg = " ".join(str(err).split())
+        raise ConfigError(f"vehicle: MuJoCo cannot compile it ({msg}); allowed: physically sized parts") from None
 
 
 @dataclass(frozen=True)

@@ -313,3 +313,44 @@ def test_block_update_equals_step_by_step():
     np.testing.assert_allclose(block["steer_rr_max"], series["tau"][:, w, 7].max(1))
     strided = np.abs(series["tau"][:, w, 0][:, :: cfg.stride])
     np.testing.assert_allclose(block["drive_lf_p95"], np.percentile(strided, 95, axis=1))
+
+
+def test_wheel_radius_sweep_flags_slip_as_single_runs_do(tmp_path):
+    """Issue 9.1: the rim speed used the base vehicle's radius, so 0.15 m and 0.25 m wheels were
+    flagged slipping (slip ratio 0.234 and -0.278) though each held 0.553 m/s. At mu 0.9 on
+    10 deg nothing slips (tan 10 deg = 0.18)."""
+    sweep = {"method": "grid", "params": {"wheel.radius": [0.15, 0.195, 0.25]}}
+    fixed = {"total_time": 4.0, "ramp_time": 1.0, "slope_deg": 10.0, "friction": 0.9, "speed_kmh": 2.0}
+    spec = load_spec(_spec(tmp_path, "rad", sweep=sweep, fixed=fixed))
+    run_sweep(spec, out=tmp_path / "rad", backend="mujoco", progress=False)
+    df = batchveh.load(tmp_path / "rad")
+    assert not df.slipping.any(), df.slip_ratio.tolist()
+    # 2 km/h at the rim = 0.556 m/s; soft contacts creep by a few per mille
+    np.testing.assert_allclose(df.mean_speed, 2.0 / 3.6, rtol=0.01)
+    np.testing.assert_allclose(df.wheel_speed, 2.0 / 3.6 / df["wheel.radius"], rtol=1e-4)
+    for _, row in df.iterrows():
+        alone = batchveh.simulate(*spec.variant(row)).stats
+        assert bool(alone["slipping"]) == bool(row.slipping)
+        np.testing.assert_allclose(row.slip_ratio, alone["slip_ratio"], atol=1e-6)
+
+
+def test_precision_is_scoped_and_compiles_follow_from_the_spec(tmp_path):
+    """Issue 9.3 and 9.4: a float32 sweep after a float64 one runs in float32 (x64 was switched on
+    for the process), and a chunk whose swept values all equal the base value compiles no second
+    program (which fields vary was decided from each chunk's values)."""
+    import jax
+    import jax.numpy as jnp
+
+    sweep = {"method": "grid", "params": {"payload.mass": [0.0, 0.0, 30.0, 40.0]}}  # chunk 0: base value only
+    fixed = {"total_time": 1.5, "ramp_time": 0.5, "slope_deg": 10.0, "friction": 0.9}
+    for precision, dtype in (("f64", np.float64), ("f32", np.float32)):
+        spec = load_spec(_spec(tmp_path, precision, sweep=sweep, fixed=fixed, precision=precision))
+        s = run_sweep(spec, out=tmp_path / precision, backend="mjx", chunk_size=2, progress=False)
+        assert s["compiles"] == 1, (precision, s["compiles"])
+        df = batchveh.load(tmp_path / precision)
+        assert df.drive_sum_mean.dtype == dtype, (precision, df.drive_sum_mean.dtype)
+        assert not jax.config.jax_enable_x64 and jnp.asarray(1.0).dtype == jnp.float32
+    a, b = batchveh.load(tmp_path / "f64"), batchveh.load(tmp_path / "f32")
+    expect = (batchveh.Vehicle().total_mass + a["payload.mass"]) * 9.81 * np.sin(np.deg2rad(10)) * 0.195
+    np.testing.assert_allclose(a.drive_sum_mean, expect, rtol=0.01)
+    np.testing.assert_allclose(b.drive_sum_mean, a.drive_sum_mean, rtol=SUM_RTOL, atol=SUM_ATOL)
