@@ -177,7 +177,7 @@ class ResultFolder:
     def _check_folder(self) -> None:
         for p in (self.path, *self.path.parents):
             if p.exists() and not p.is_dir():
-                raise ConfigError(f"{self.path}: {p} exists and is not a folder; allowed: a folder path for the results")
+                raise ConfigError(f"{self.path}: {p} exists and is not a folder; allowed: a folder for the results")
 
     def verify(self) -> tuple[set[int], dict[str, str]]:
         """(finished chunks, {part name: what is wrong}) against the manifest's records."""

@@ -206,7 +206,10 @@ def test_resume_after_kill_equals_uninterrupted(tmp_path):
         ({"outptu": "x"}, ["outptu", "did you mean 'output'?", "allowed keys"]),
         ({"sweep": {"method": "random", "params": {"friction": {"low": 0.1, "high": 1}}}}, ["sweep.n"]),
         ({"scenario": "drift"}, ["scenario", "'drift'", "known:"]),
-        ({"sweep": {"method": "grid", "params": {"time_step": [0.005, 0.0025]}}}, ["sweep.params.time_step", "cannot be swept", "under fixed"]),
+        (
+            {"sweep": {"method": "grid", "params": {"time_step": [0.005, 0.0025]}}},
+            ["sweep.params.time_step", "cannot be swept", "under fixed"],
+        ),
         ({"solver": {"iterations": 0}}, ["solver.iterations", "0", "integer >= 1"]),
         ({"solver": {"type": "pgs"}}, ["solver.type", "'pgs'", "newton, cg"]),
         ({"solver": {"impl": "warp"}}, ["solver.impl", "'warp'", "auto, fused, mjx"]),
