@@ -33,7 +33,11 @@ def float_precision(name: str):
     Trace, compile and call an MJX program inside it; arrays made outside keep their dtype."""
     if name not in ("f32", "f64"):
         raise ValueError(f"precision {name!r}; allowed: f32, f64")
-    return jax.enable_x64(name == "f64")
+    if hasattr(jax, "enable_x64"):  # JAX >= 0.8
+        return jax.enable_x64(name == "f64")
+    from jax.experimental import disable_x64, enable_x64
+
+    return enable_x64() if name == "f64" else disable_x64()
 
 
 def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: Layout, body_out):
