@@ -91,9 +91,9 @@ def mujoco_steps(
     Before the first step the data is forwarded (for a first frame, say) and yielded with
     controls None. The same data object is yielded every time."""
     d = mujoco.MjData(m)
-    p = {k: jnp.asarray(v) for k, v in params.items()}
-    times = jnp.asarray(np.arange(n_steps) * m.opt.timestep)
-    ctrls = np.asarray(jax.jit(control_schedule(scenario))(p, times), dtype=np.float64)
+    with float_precision("f64"):  # MuJoCo C is the float64 reference: so are its controls
+        p = {k: np.asarray(v, np.float64) for k, v in params.items()}
+        ctrls = np.asarray(jax.jit(control_schedule(scenario))(p, np.arange(n_steps) * m.opt.timestep))
     mujoco.mj_forward(m, d)
     yield d, None
     for i in range(n_steps):

@@ -31,10 +31,15 @@ def _run(n_devices):
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+# float32: sharding changes the per-device batch (6 -> 3), so XLA may reorder float32 sums;
+# measured relative difference up to 7.3e-7 (abs 2.7e-5 N m on 36 N m)
+SHARD_RTOL = 3e-6
+
+
 def test_two_devices_match_one():
     one, two = _run(1), _run(2)
     assert one["devices"] == 1 and two["devices"] == 2
     assert two["chunk"] % 2 == 0
     assert len(two["sum"]) == len(one["sum"]) == 6
     for a, b in zip(one["sum"], two["sum"], strict=True):
-        assert abs(a - b) <= 1e-4 * max(1.0, abs(a)), (one, two)
+        assert abs(a - b) <= SHARD_RTOL * max(1.0, abs(a)), (one, two)

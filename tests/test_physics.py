@@ -1,4 +1,13 @@
-"""The vehicle on MuJoCo C against closed-form physics (REFERENCE.md) and tracking limits."""
+"""The vehicle on MuJoCo C against closed-form physics (REFERENCE.md) and tracking limits.
+
+Every tolerance below was set from a measured error (the value after "measured", MuJoCo C,
+this seed vehicle) and a physical error budget, as a small multiple of the measured error.
+The main budget is contact penetration: MuJoCo's soft contacts let the wheels sink by
+delta = 175 um = 9e-4 r (measured, chassis height) and put the contact point midway through
+the overlap, so the lever arm from the contact to the axle is r - delta / 2 = r (1 - 4.5e-4):
+the drive torques come out ~4e-4 below m g sin(s) r, and a free wheel spins ~4.5e-4 faster
+than v / r. The deficit grows with the normal load (heavier vehicle, sphere contact).
+"""
 
 import dataclasses
 
@@ -7,16 +16,43 @@ import pytest
 from conftest import slope_torque
 
 from batchveh.run import simulate
-from batchveh.scenarios import make_scenario
-from batchveh.vehicle import Vehicle
+from batchveh.scenarios import make_scenario, scenario_from_mapping
+from batchveh.vehicle import build_model
 
-# Named tolerances (the issue's): four-wheel sum of the steady mean drive torques
-SUM_RTOL = 0.01  # 1% of m g sin(slope) r
-SUM_RTOL_5DEG = 0.04  # 4% at 5 deg, where the value is small
-SUM_ATOL_FLAT = 0.05  # N m at 0 deg, where the closed form is 0
-SPEED_TRACK_RTOL = 0.005  # steady wheel-speed error, relative
-STEER_TRACK_DEG = 0.5  # steady steering-angle error
-DT_HALVING_RTOL = 0.005  # mean slope torque change when dt halves
+CORNERS = ("lf", "rf", "lr", "rr")
+
+# four-wheel sum of the steady mean drive torques against m g sin(s) r, relative
+SUM_RTOL = 1e-3  # measured -3.8e-4 .. -4.4e-4 at 5..20 deg, -9e-5 at 25 deg mu 0.7 (penetration, above)
+SUM_RTOL_HEAVY = 1e-3  # 194.8 kg at 10 deg: measured -5.1e-4 (more load, deeper penetration)
+SUM_RTOL_SPHERE = 2e-3  # one contact per wheel sinks deeper: measured -7.8e-4 at 15 deg
+SUM_ATOL_FLAT = 1e-5  # N m at 0 deg, where the closed form is 0: measured 1.0e-6 (10x: round-off scale)
+MIRROR_ATOL = 3e-9  # N m, left vs right wheel on a straight line (mirror symmetry): measured up to 7.1e-10
+# steady tracking on a 20 deg slope at mu 0.9, straight line (window 2..4 s after a 1 s ramp)
+SPEED_TRACK_RTOL = 2e-6  # mean wheel-speed error, relative: measured 6.7e-7
+STEER_TRACK_DEG = 0.1  # steering angle under the slope's aligning load: measured 0.040 deg
+# pivot on the same slope: its window (2.5..5 s) holds the drive ramp (2..4 s), so the servo lags
+PIVOT_SPEED_TRACK_RTOL = 5e-3  # measured 1.45e-3
+PIVOT_STEER_TRACK_DEG = 0.25  # measured 0.080 deg
+STEER_END_DEG = 0.05  # seed scenario 2's final steering angles: measured 0.020 deg
+DT_HALVING_RTOL = 1e-8  # the steady mean is a quasi-static force balance; measured 1.4e-9 (7x: round-off)
+FREE_WHEEL_RTOL = 1e-3  # towing wheel speed vs v_forward / r: measured +4.7e-4 (penetration, above)
+# sliding (tan s > mu): the chassis accelerates down the slope at g (mu cos s - sin s), a momentum
+# balance over the window: measured -0.23% (20 deg), -0.22% (25 deg); +0.55% at 30 deg
+SLIDING_ACCEL_RTOL = 0.01
+# the drive sum of sliding wheels is mu N r on average, but the wheels chatter (the sum's std is
+# ~2x its mean), so its 2 s window mean scatters: measured -1.4% (20 deg), +1.7% (25 deg), and
+# -3.2% / -3.3% at 30 deg mu 0.3 / 25 deg mu 0.1 (not tested); 5% covers that scatter
+SLIDING_SUM_RTOL = 0.05
+# turns: yaw rates over the steady part against their closed forms. Soft contacts creep
+# (README: 1 to 2 %), so the vehicle turns slightly slower and wider than the rigid kinematics.
+PIVOT_YAW_RTOL = 0.01  # measured -0.32%
+ACKERMANN_YAW_RTOL = 0.015  # measured -0.54% (R 3 m, 2 km/h), -0.37% (R -5 m, 4 km/h)
+ACKERMANN_RADIUS_RTOL = 0.015  # path radius of the chassis origin: measured +0.67%, +0.62%
+CRAB_ANGLE_DEG = 0.01  # travel direction relative to the heading: measured 6e-4 deg
+CRAB_SPEED_RTOL = 1e-3  # chassis speed vs the rim speed: measured -2.3e-4 (penetration)
+SYMMETRY_ATOL_M = 1e-12  # m, pivot centre drift; zero by symmetry, measured 1.5e-16 (round-off only)
+RAMP_ACCEL_RTOL = 5e-3  # chassis acceleration over the drive ramp vs 1 m/s^2: measured -1.3e-3
+STEADY_ACCEL_ATOL = 2e-8  # m/s^2 after the ramp: measured 5.7e-9
 
 
 def straight(slope_deg, friction=0.9, **kw):
@@ -25,32 +61,58 @@ def straight(slope_deg, friction=0.9, **kw):
     return make_scenario("straight_line", slope_deg=slope_deg, friction=friction, **kw)
 
 
+def steady_yaw_rate(series, t_from):
+    """Least-squares slope of the unwrapped yaw in rad/s, and the samples, from t_from on."""
+    w = series[series.time >= t_from]
+    return np.polyfit(w.time.to_numpy(), np.unwrap(w.yaw.to_numpy()), 1)[0], w
+
+
+def test_the_closed_forms_use_the_seed_mass(vehicle):
+    """slope_torque takes vehicle.total_mass: check it against REFERENCE.md and the MuJoCo model."""
+    assert vehicle.total_mass == pytest.approx(144.8, abs=1e-9)  # 88.4 + 4 (3.0 + 11.1)
+    np.testing.assert_allclose(build_model(vehicle).body_subtreemass[1], 144.8, rtol=1e-12)
+    # REFERENCE: "about 12.0 N m" per wheel at 10 deg, i.e. 12.0 +- 0.05 (three digits)
+    assert slope_torque(vehicle, 10) / 4 == pytest.approx(12.0, abs=0.05)
+
+
 @pytest.mark.parametrize("slope_deg", [0, 5, 10, 15, 20])
 def test_slope_torque_sum_matches_closed_form(vehicle, slope_deg):
     s = simulate(vehicle, straight(slope_deg)).stats
     expected = slope_torque(vehicle, slope_deg)
     assert s["status_code"] == 0 and not s["slipping"]
+    per_wheel = np.array([s[f"drive_{c}_mean"] for c in CORNERS])
     if slope_deg == 0:
-        assert abs(s["drive_sum_mean"]) < SUM_ATOL_FLAT
+        assert abs(s["drive_sum_mean"]) < SUM_ATOL_FLAT, s["drive_sum_mean"]
     else:
-        rtol = SUM_RTOL_5DEG if slope_deg == 5 else SUM_RTOL
         np.testing.assert_allclose(
-            s["drive_sum_mean"], expected, rtol=rtol, err_msg=f"four-wheel drive sum at {slope_deg} deg"
+            s["drive_sum_mean"], expected, rtol=SUM_RTOL, err_msg=f"four-wheel drive sum at {slope_deg} deg"
         )
-    # the sum is fixed by physics; each wheel carries part of it, with the same sign
-    per_wheel = [s[f"drive_{c}_mean"] for c in ("lf", "rf", "lr", "rr")]
-    np.testing.assert_allclose(sum(per_wheel), s["drive_sum_mean"], rtol=1e-9)
+        # the split is statically indeterminate (README), but every wheel pushes up the slope
+        assert np.all(per_wheel > 0), per_wheel
+    # a straight line on a symmetric vehicle: the left and right wheels of an axle carry the same torque
+    np.testing.assert_allclose(per_wheel[[0, 2]], per_wheel[[1, 3]], rtol=0, atol=MIRROR_ATOL)
 
 
 def test_tracking_on_20_deg_slope(vehicle):
-    """Steady wheel speed within 0.5% and steering angle within 0.5 deg (mu 0.9, 20 deg)."""
+    """Steady wheel speed and steering angle follow their targets (mu 0.9, 20 deg)."""
     s = simulate(vehicle, straight(20)).stats
     assert s["speed_track_err"] <= SPEED_TRACK_RTOL, s["speed_track_err"]
     assert s["steer_track_err_deg"] <= STEER_TRACK_DEG, s["steer_track_err_deg"]
     # a manoeuvre that loads the steering: pivot on the same slope
     pv = simulate(vehicle, make_scenario("pivot", slope_deg=20, friction=0.9, total_time=5.0)).stats
-    assert pv["steer_track_err_deg"] <= STEER_TRACK_DEG, pv["steer_track_err_deg"]
-    assert pv["speed_track_err"] <= SPEED_TRACK_RTOL, pv["speed_track_err"]
+    assert pv["steer_track_err_deg"] <= PIVOT_STEER_TRACK_DEG, pv["steer_track_err_deg"]
+    assert pv["speed_track_err"] <= PIVOT_SPEED_TRACK_RTOL, pv["speed_track_err"]
+
+
+def _sliding_sum(vehicle, slope_deg, mu):
+    """Four-wheel drive sum when every wheel slides: mu N r with N = m g cos(s)."""
+    return mu * vehicle.total_mass * 9.81 * np.cos(np.deg2rad(slope_deg)) * vehicle.wheel.radius
+
+
+def _sliding_accel(slope_deg, mu, g=9.81):
+    """Acceleration along +X in m/s^2 of a body sliding on the slope while pushed up it by friction."""
+    s = np.deg2rad(slope_deg)
+    return g * (mu * np.cos(s) - np.sin(s))
 
 
 def test_friction_value_is_the_acting_friction(vehicle):
@@ -64,14 +126,19 @@ def test_friction_value_is_the_acting_friction(vehicle):
     assert slips["slipping"] and slips["mean_speed"] < 0, slips["slip_ratio"]
     assert not holds["slipping"] and holds["mean_speed"] > 0, holds["slip_ratio"]
     np.testing.assert_allclose(holds["drive_sum_mean"], slope_torque(vehicle, 25), rtol=SUM_RTOL)
+    # sliding at mu 0.3 (not 1.0): the chassis slides down at g (mu cos s - sin s), the ground takes mu N r
+    np.testing.assert_allclose(slips["window_accel"], _sliding_accel(25, 0.3), rtol=SLIDING_ACCEL_RTOL)
+    np.testing.assert_allclose(slips["drive_sum_mean"], _sliding_sum(vehicle, 25, 0.3), rtol=SLIDING_SUM_RTOL)
 
 
 def test_slip_is_reported_past_the_friction_limit(vehicle):
     """tan(20 deg) = 0.364 > mu = 0.3: the target speed cannot be held, and the run says so."""
     s = simulate(vehicle, straight(20, friction=0.3)).stats
-    assert s["slipping"] and s["slip_ratio"] > 1.0, s["slip_ratio"]
-    # the torque the ground can take is bounded by friction, below the no-slip value
-    assert s["drive_sum_mean"] < slope_torque(vehicle, 20)
+    # slip ratio 1 - v / (omega r) > 1: the chassis slides backwards while the wheels drive forwards
+    assert s["slipping"] and s["slip_ratio"] > 1.0 and s["mean_speed"] < 0, s["slip_ratio"]
+    np.testing.assert_allclose(s["window_accel"], _sliding_accel(20, 0.3), rtol=SLIDING_ACCEL_RTOL)
+    # the torque the ground can take is mu N r (78.1 N m), 18% below the no-slip 94.7 N m
+    np.testing.assert_allclose(s["drive_sum_mean"], _sliding_sum(vehicle, 20, 0.3), rtol=SLIDING_SUM_RTOL)
 
 
 def test_halving_dt_changes_mean_slope_torque_little(vehicle):
@@ -86,61 +153,101 @@ def test_seed_scenario_2_steering_within_scrub_bound(vehicle):
     assert sc.total_time == 3.0 and sc.friction == 0.7
     res = simulate(vehicle, sc, window=(2.0, 3.0))
     s = res.stats
-    bound = sc.friction * vehicle.total_mass * sc.gravity / 4 * vehicle.steer_offset
-    for c in ("lf", "rf", "lr", "rr"):
+    assert vehicle.steer_offset == pytest.approx(0.1)  # REFERENCE: axis 0.1 m inboard of the wheel centre
+    bound = sc.friction * vehicle.total_mass * sc.gravity / 4 * vehicle.steer_offset  # 24.9 N m
+    for c in CORNERS:  # a physical bound, not a tolerance: measured 14.2 N m
         assert 0.5 < s[f"steer_{c}_peak"] <= bound, (c, s[f"steer_{c}_peak"], bound)
     # each wheel reaches its seed angle: -45, +45, +45, -45 deg
     last = res.series.iloc[-1]
     np.testing.assert_allclose(
         np.rad2deg([last.alpha_lf, last.alpha_rf, last.alpha_lr, last.alpha_rr]),
         [-45, 45, 45, -45],
-        atol=STEER_TRACK_DEG,
+        atol=STEER_END_DEG,
     )
-    # the drive speeds are the seed's 0.134 rad/s at the end of the ramp
-    np.testing.assert_allclose(abs(last.omega_ref_lf), 0.134, atol=5e-4)
+    # the drive speeds are the seed's 0.134 rad/s at the end of the ramp; 5e-4 is the seed's
+    # rounding to three digits (measured 0.13403: offset * (pi/4) / 3 s / r at the last step's start)
+    np.testing.assert_allclose(np.abs([last[f"omega_ref_{c}"] for c in CORNERS]), 0.134, atol=5e-4)
 
 
 def test_towing_wheels_roll_free_with_zero_torque(vehicle):
     res = simulate(vehicle, make_scenario("towing", total_time=4.0, ramp_time=1.0, slope_deg=5, friction=0.9))
     ser = res.series[res.series.time > 2.0]
     assert np.all(ser.drive_lr == 0.0) and np.all(ser.drive_rr == 0.0)
-    ground_speed = ser.v_forward / vehicle.wheel.radius
-    np.testing.assert_allclose(ser.omega_lr.mean(), ground_speed.mean(), rtol=0.02)
-    # the front wheels carry the whole slope load
-    np.testing.assert_allclose(res.stats["drive_sum_mean"], slope_torque(vehicle, 5), rtol=SUM_RTOL_5DEG)
+    ground_speed = ser.v_forward.mean() / vehicle.wheel.radius
+    np.testing.assert_allclose([ser.omega_lr.mean(), ser.omega_rr.mean()], ground_speed, rtol=FREE_WHEEL_RTOL)
+    # the front wheels carry the whole slope load: measured -4.0e-4
+    np.testing.assert_allclose(res.stats["drive_sum_mean"], slope_torque(vehicle, 5), rtol=SUM_RTOL)
 
 
-def test_manoeuvres_move_as_intended(vehicle):
-    crab = simulate(vehicle, make_scenario("crab", steer_deg=30, total_time=6.0)).stats
-    assert crab["status_code"] == 0
-    np.testing.assert_allclose(np.rad2deg(np.arctan2(crab["final_y"], crab["final_x"])), 30, atol=3)
-    pivot = simulate(vehicle, make_scenario("pivot", total_time=6.0)).stats
-    assert abs(pivot["final_x"]) < 0.05 and abs(pivot["final_y"]) < 0.05
-    assert pivot["final_yaw_deg"] > 30  # 20 deg/s for about 2 s after the drive ramp
-    turn = simulate(vehicle, make_scenario("ackermann", turn_radius=3.0, speed_kmh=2.0)).stats
-    assert turn["final_y"] > 0.3 and turn["final_yaw_deg"] > 20  # a left turn
+def test_crab_travels_at_the_steering_angle(vehicle):
+    """All wheels at 30 deg: the chassis translates at 30 deg to its heading, at the rim speed.
+
+    The heading itself turns about -1.5 deg while the wheels steer in place (0..3 s): the offset
+    steering axes drag the wheel contacts, and the soft contacts let the chassis yaw. So the
+    direction is checked relative to the heading, over the steady part (drive ramp ends at 6 s).
+    """
+    res = simulate(vehicle, make_scenario("crab", steer_deg=30, total_time=8.0))
+    assert res.stats["status_code"] == 0
+    w = res.series[res.series.time >= 6.5]
+    travel = np.rad2deg(np.arctan2(w.y.iloc[-1] - w.y.iloc[0], w.x.iloc[-1] - w.x.iloc[0]))
+    heading = np.rad2deg(w.yaw.mean())
+    np.testing.assert_allclose(travel - heading, 30.0, atol=CRAB_ANGLE_DEG)
+    speed = np.hypot(w.vx, w.vy).mean()
+    np.testing.assert_allclose(speed, 1.0 / 3.6, rtol=CRAB_SPEED_RTOL)  # speed_kmh 1.0 at the rim
+
+
+def test_pivot_yaws_at_the_imposed_rate_on_the_spot(vehicle):
+    """Steer 0..2 s, drive ramp 2..4 s, then the chassis yaws at yaw_rate_dps (20 deg/s) about its centre."""
+    res = simulate(vehicle, make_scenario("pivot", total_time=6.0))
+    rate, w = steady_yaw_rate(res.series, 4.5)
+    np.testing.assert_allclose(np.rad2deg(rate), 20.0, rtol=PIVOT_YAW_RTOL)
+    assert np.abs(res.series[["x", "y"]].to_numpy()).max() < SYMMETRY_ATOL_M
+
+
+@pytest.mark.parametrize("radius, speed_kmh", [(3.0, 2.0), (-5.0, 4.0)])
+def test_ackermann_turns_at_v_over_r(vehicle, radius, speed_kmh):
+    """Turn centre on the rear-axle line, (-length/2, radius) in the chassis frame; speed_kmh is
+    the speed of the chassis origin, at R = hypot(length/2, radius) from the centre: yaw rate v / R.
+
+    Steer 0..3 s, drive ramp 3..6 s, steady 6.5..8 s. The vehicle starts at the origin with
+    yaw 0 and barely moves while steering, so the world centre is (-length/2, radius).
+    """
+    res = simulate(vehicle, make_scenario("ackermann", turn_radius=radius, speed_kmh=speed_kmh))
+    assert res.stats["status_code"] == 0
+    xc = -vehicle.chassis.length / 2
+    big_r = np.hypot(xc, radius)
+    rate, w = steady_yaw_rate(res.series, 6.5)
+    np.testing.assert_allclose(rate, np.sign(radius) * speed_kmh / 3.6 / big_r, rtol=ACKERMANN_YAW_RTOL)
+    np.testing.assert_allclose(np.hypot(w.x - xc, w.y - radius).mean(), big_r, rtol=ACKERMANN_RADIUS_RTOL)
 
 
 def test_heavier_payload_needs_proportionally_more_torque(vehicle):
     heavy = dataclasses.replace(vehicle, payload=dataclasses.replace(vehicle.payload, mass=50.0, x=0.2))
+    assert heavy.total_mass == pytest.approx(144.8 + 50.0)
     s = simulate(heavy, straight(10)).stats
-    np.testing.assert_allclose(s["drive_sum_mean"], slope_torque(heavy, 10), rtol=SUM_RTOL)
-    assert heavy.total_mass == Vehicle().total_mass + 50.0
+    np.testing.assert_allclose(s["drive_sum_mean"], slope_torque(heavy, 10), rtol=SUM_RTOL_HEAVY)
 
 
-def test_gravity_presets_scale_the_torque(vehicle):
-    moon = simulate(vehicle, straight(10, gravity=1.62)).stats
-    np.testing.assert_allclose(moon["drive_sum_mean"], slope_torque(vehicle, 10, g=1.62), rtol=SUM_RTOL)
+@pytest.mark.parametrize("preset, g", [("moon", 1.62), ("mars", 3.71)])
+def test_gravity_presets_scale_the_torque(vehicle, preset, g):
+    """The scenario loader's gravity names, against the surface gravity of the Moon and Mars in m/s^2."""
+    raw = dict(kind="straight_line", gravity=preset, slope_deg=10, friction=0.9, total_time=4.0, ramp_time=1.0)
+    sc = scenario_from_mapping(raw, "test")
+    assert sc.gravity == g
+    s = simulate(vehicle, sc).stats
+    expected = vehicle.total_mass * g * np.sin(np.deg2rad(10)) * vehicle.wheel.radius
+    # measured -7.3e-5 (moon), -1.7e-4 (mars): less load, shallower penetration than on earth
+    np.testing.assert_allclose(s["drive_sum_mean"], expected, rtol=SUM_RTOL)
 
 
 def test_window_acceleration_reads_the_ramp(vehicle):
     """Over the ramp the chassis accelerates at speed / ramp_time; after it, the window is steady."""
     sc = straight(0, speed_kmh=3.6)  # 1 m/s at the rim, reached over 1 s
     ramp = simulate(vehicle, sc, window=(0.3, 0.8)).stats
-    np.testing.assert_allclose(ramp["window_accel"], 1.0, rtol=0.05)
+    np.testing.assert_allclose(ramp["window_accel"], 1.0, rtol=RAMP_ACCEL_RTOL)
     assert not ramp["steady"]
     after = simulate(vehicle, sc).stats
-    assert after["steady"] and abs(after["window_accel"]) < 0.01
+    assert after["steady"] and abs(after["window_accel"]) < STEADY_ACCEL_ATOL, after["window_accel"]
 
 
 def _may_touch(m, a: str, b: str) -> bool:
@@ -150,8 +257,6 @@ def _may_touch(m, a: str, b: str) -> bool:
 
 
 def test_only_wheels_touch_the_ground_unless_asked(vehicle):
-    from batchveh.vehicle import build_model
-
     m = build_model(vehicle)
     assert _may_touch(m, "wheel_lf", "ground") and _may_touch(m, "wheel_rr", "ground")
     assert not _may_touch(m, "wheel_lf", "wheel_rf")
@@ -162,12 +267,10 @@ def test_only_wheels_touch_the_ground_unless_asked(vehicle):
 
 def test_sphere_wheel_contacts_keep_the_slope_physics(vehicle):
     """wheel.collision: sphere (one contact per wheel, for GPU speed) keeps mass, inertia and the slope sum."""
-    from batchveh.vehicle import build_model
-
     sphere = dataclasses.replace(vehicle, wheel=dataclasses.replace(vehicle.wheel, collision="sphere"))
     a, b = build_model(vehicle), build_model(sphere)
-    np.testing.assert_allclose(b.body_subtreemass[1], a.body_subtreemass[1])
-    np.testing.assert_allclose(b.body_inertia, a.body_inertia)
+    np.testing.assert_allclose(b.body_subtreemass[1], a.body_subtreemass[1], rtol=1e-12)
+    np.testing.assert_allclose(b.body_inertia, a.body_inertia, rtol=1e-12)
     s = simulate(sphere, straight(15)).stats
-    np.testing.assert_allclose(s["drive_sum_mean"], slope_torque(vehicle, 15), rtol=SUM_RTOL)
-    assert not s["slipping"] and s["speed_track_err"] < SPEED_TRACK_RTOL
+    np.testing.assert_allclose(s["drive_sum_mean"], slope_torque(vehicle, 15), rtol=SUM_RTOL_SPHERE)
+    assert not s["slipping"] and s["speed_track_err"] < SPEED_TRACK_RTOL  # measured 6.4e-8

@@ -69,8 +69,10 @@ def test_steering_envelope_and_operating_points(sweep):
     fig = plot.steering_envelope(df, "tiny", x="slope_deg", curve="friction")
     _labels_have_units(fig)
     worst = df[[f"steer_{c}_peak_lp" for c in ("lf", "rf", "lr", "rr")]].abs().max(axis=1)
-    expect = worst[df.friction == 0.3].groupby(df.slope_deg).max()
-    np.testing.assert_allclose(fig.axes[0].lines[0].get_ydata(), expect.to_numpy())
+    for line, mu in zip(fig.axes[0].lines, (0.3, 0.9), strict=True):  # one curve per friction
+        expect = worst[df.friction == mu].groupby(df.slope_deg).max()
+        np.testing.assert_allclose(line.get_xdata(), expect.index)
+        np.testing.assert_allclose(line.get_ydata(), expect.to_numpy())
     motor = Motor(name="M", continuous_torque=2.0, peak_torque=5.0, max_speed=800, corner_speed=500, gear_ratio=20)
     fig = plot.operating_points(df, "tiny", motor)
     _labels_have_units(fig)
@@ -78,6 +80,9 @@ def test_steering_envelope_and_operating_points(sweep):
     c = check(df, motor)
     np.testing.assert_allclose(pts[:, 0], c.shaft_speed)
     np.testing.assert_allclose(pts[:, 1], c.shaft_rms)
+    peaks = fig.axes[0].collections[1].get_offsets()
+    np.testing.assert_allclose(peaks[:, 0], c.shaft_speed)
+    np.testing.assert_allclose(peaks[:, 1], c.shaft_peak)
 
 
 def test_sweep_figures_and_seed_figures_of_a_variant(sweep, tmp_path):
@@ -90,6 +95,8 @@ def test_sweep_figures_and_seed_figures_of_a_variant(sweep, tmp_path):
     vehicle, scenario = spec_of_result(out).variant(row)
     assert scenario.slope_deg == row.slope_deg and scenario.friction == row.friction
     res = batchveh.simulate(vehicle, scenario)
-    np.testing.assert_allclose(res.stats["drive_sum_mean"], row.drive_sum_mean, rtol=1e-6)
+    # the sweep's MuJoCo C engine and simulate evaluate the control laws in float32 by different
+    # routes (times vs step counts): measured 5.0e-8 for this row, 6.3e-8 worst over the sweep
+    np.testing.assert_allclose(res.stats["drive_sum_mean"], row.drive_sum_mean, rtol=2e-7)
     figs = plot.seed_figures(res.series, tmp_path / "seed", "variant 7")
     assert len(figs) == 4 and all(p.exists() for p in figs)

@@ -9,6 +9,13 @@ from batchveh.spec import spec_from_mapping
 
 pytestmark = pytest.mark.slow
 
+# as tests/test_physics.py (contact penetration): measured -3.7e-4 .. -4.2e-4 at 5..20 deg on MJX float32
+SUM_RTOL = 1e-3
+FLAT_ATOL_F32 = 5e-3  # N m at 0 deg: measured 1.5e-3 on MJX float32 (MuJoCo C: 1e-6)
+# chassis speed vs rim speed while the seed's unbounded ramp keeps accelerating: soft contacts
+# creep 0.9 to 1.8% over 5..10 s (README: 1 to 2%); measured 0.88% at the last step
+CREEP_RTOL = 0.02
+
 
 def test_mjx_sums_on_every_validation_slope(tmp_path, vehicle):
     """The closed-form check of tests/test_physics.py, on MJX (float32, one compile) for all five slopes."""
@@ -23,10 +30,11 @@ def test_mjx_sums_on_every_validation_slope(tmp_path, vehicle):
     for _, row in df.iterrows():
         expect = slope_torque(vehicle, row.slope_deg)
         if row.slope_deg == 0:
-            assert abs(row.drive_sum_mean) < 0.05
+            assert abs(row.drive_sum_mean) < FLAT_ATOL_F32, row.drive_sum_mean
         else:
-            rtol = 0.04 if row.slope_deg == 5 else 0.01
-            np.testing.assert_allclose(row.drive_sum_mean, expect, rtol=rtol, err_msg=str(row.slope_deg))
+            np.testing.assert_allclose(row.drive_sum_mean, expect, rtol=SUM_RTOL, err_msg=str(row.slope_deg))
+            per_wheel = [row[f"drive_{c}_mean"] for c in ("lf", "rf", "lr", "rr")]
+            assert all(t > 0 for t in per_wheel), per_wheel  # every wheel pushes up the slope
 
 
 def test_seed_scenario_1_full_length(vehicle):
@@ -35,6 +43,8 @@ def test_seed_scenario_1_full_length(vehicle):
     res = batchveh.simulate(vehicle, sc)
     omega = 1.0 / 3.6 / vehicle.wheel.radius
     last = res.series.iloc[-1]
-    np.testing.assert_allclose(last.omega_ref_lf, omega * 10 / 3, rtol=1e-3)  # 3.3x the "constant" target
+    # 3.3x the "constant" target at 10 s; the last step's control is evaluated at its start,
+    # t = 10 s - dt, in float32 (JAX's default): measured 1.3e-7 from omega (10 - dt) / 3
+    np.testing.assert_allclose(last.omega_ref_lf, omega * (10 - sc.time_step) / 3, rtol=5e-7)
     assert res.stats["status_code"] == 0
-    np.testing.assert_allclose(last.v_forward, last.omega_lf * vehicle.wheel.radius, rtol=0.02)
+    np.testing.assert_allclose(last.v_forward, last.omega_lf * vehicle.wheel.radius, rtol=CREEP_RTOL)
