@@ -70,10 +70,17 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
 
 
 def spec(
-    *, unit: str = "", ge: float | None = None, gt: float | None = None, le: float | None = None, doc: str = ""
+    *,
+    unit: str = "",
+    ge: float | None = None,
+    gt: float | None = None,
+    le: float | None = None,
+    doc: str = "",
+    sweep: bool = True,
 ) -> dict[str, Any]:
-    """Field metadata: unit and bounds checked by `from_mapping`."""
-    return {"unit": unit, "ge": ge, "gt": gt, "le": le, "doc": doc}
+    """Field metadata: unit and bounds checked by `from_mapping`; `sweep` False keeps a number
+    out of the sweepable parameters (a model option that no per-variant field carries)."""
+    return {"unit": unit, "ge": ge, "gt": gt, "le": le, "doc": doc, "sweep": sweep}
 
 
 def field(default: Any, **kw: Any) -> Any:

@@ -115,11 +115,35 @@ def steer_in_place(sc, p, t):
 
     Each wheel is driven so that it rolls around its offset steering axis, as the
     seed does: a ramp to offset * steering rate / radius (0.134 rad/s for the seed).
+    The steering turns at its full rate from t = 0 while the drive speeds ramp up from 0,
+    so each rim lags its path and the wheels slide (scrub) for most of the ramp;
+    `steer_in_place_rolling` is the consistent form.
     """
     target = jnp.deg2rad(p["steer_deg"]) * jnp.array([-1.0, 1.0, 1.0, -1.0])
     alpha = laws.ramp(t, 0.0 * target, target, p["ramp_time"])
     roll = -_SY * _offset(p) * (target / jnp.maximum(p["ramp_time"], 1e-12)) / p["wheel.radius"]
     return _drive(sc, roll, p, t), alpha
+
+
+def steer_in_place_rolling(sc, p, t):
+    """Seed scenario 2, consistent form: the seed's steering, with each wheel rolling at its path speed.
+
+    The wheel centre sits `offset` outboard of its steering axis, so while the hub turns at
+    d alpha/dt the centre moves at offset * d alpha/dt along the wheel's heading. Here each wheel
+    rolls at exactly that speed, omega = -sy * offset * (d alpha/dt) / r (0.134 rad/s for the seed),
+    from t = 0 while the steering ramps, and stands still after it: the centre of each contact
+    does not slide, and only the contact's width scrubs (a spin about the vertical through the
+    contact centre: mu N width / 4 of steering torque for a uniformly loaded line, up to
+    mu N width / 2 with MuJoCo's two contacts at the edges of the line).
+    `steer_in_place` is the seed's form: there the drive speeds ramp up from 0, so each rim lags
+    its path and the wheels slide. `drive_law` does not apply here.
+    """
+    target = jnp.deg2rad(p["steer_deg"]) * jnp.array([-1.0, 1.0, 1.0, -1.0])
+    duration = jnp.maximum(p["ramp_time"], 1e-12)
+    alpha = laws.ramp(t, 0.0 * target, target, p["ramp_time"])
+    roll = -_SY * _offset(p) * (target / duration) / p["wheel.radius"]
+    turning = (t >= 0.0) & (t < p["ramp_time"])
+    return jnp.where(turning, roll, 0.0 * roll), alpha
 
 
 def crab(sc, p, t):
@@ -203,6 +227,7 @@ SCENARIOS: dict[str, tuple[Controls, dict[str, Any]]] = {
     "ackermann": (ackermann, {"total_time": 8.0}),
     "crab": (crab, {"total_time": 8.0, "steer_deg": 30.0}),
     "pivot": (pivot, {"total_time": 8.0, "ramp_time": 2.0}),
+    "steer_in_place_rolling": (steer_in_place_rolling, {"total_time": 3.0}),
     "custom": (custom, {}),
 }
 

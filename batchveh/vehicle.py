@@ -60,6 +60,9 @@ class Wheel:
     mass: float = field(3.0, unit="kg", gt=0)
     x_cg: float = field(0.5, unit="m", gt=0)
     y_cg: float = field(0.4, unit="m", gt=0)
+    rolling_resistance: float = field(
+        0.0, unit="1", ge=0, le=1, doc="rolling resistance coefficient C_rr (0.01-0.06: polyurethane to soft rubber)"
+    )
     # contact shape: 'cylinder' (the seed's; MJX makes 3 contacts per wheel) or 'sphere'
     # (one contact per wheel, same mass and inertia; no contact width, so no scrub torque
     # from the width: faster on a GPU, for drive torques on straight paths)
@@ -105,6 +108,25 @@ class Motors:
 
 
 @dataclass(frozen=True)
+class ContactModel:
+    """How MuJoCo's soft friction approaches Coulomb friction (validation/DRAG.md).
+
+    MuJoCo's friction is a soft constraint: below a saturation slip speed it acts as a
+    viscous damper. With its defaults (pyramidal cone, impratio 1) a seed wheel sliding at
+    3 mm/s feels 0.27 mu N. With an elliptic cone and impratio 10 (default) it feels mu N
+    from 1 mm/s up (0.54-1.0 at 0.3 mm/s; tests/test_contact.py), in every slip direction,
+    at no extra solver cost on MuJoCo C. impratio 30 and 100 also meet that target, but on
+    the vehicle their stiffer friction made the split between four wheels locked to one
+    speed unstable: left and right 0.16 N m apart on a straight 15 deg climb (30), MJX and C
+    0.5 N m apart per wheel (100); at 10 both stay mirror-symmetric to 1e-12 N m and the
+    engines agree to 2e-4 N m per step. 'pyramidal' meets mu N along the cone's axes only
+    (0.71 mu N against a diagonal slip) and is the cone batchveh's fused GPU solver handles."""
+
+    cone: Literal["elliptic", "pyramidal"] = "elliptic"
+    impratio: float = field(10.0, unit="1", ge=1, le=1e4, doc="frictional-to-normal impedance ratio", sweep=False)
+
+
+@dataclass(frozen=True)
 class Vehicle:
     """The whole vehicle; the defaults are the seed's vehicle_params.yaml."""
 
@@ -116,6 +138,7 @@ class Vehicle:
     # 'ground': wheels touch the ground only (fast, the seed's intent); 'all': wheels also
     # touch each other and the hubs touch the ground
     contacts: Literal["ground", "all"] = "ground"
+    contact_model: ContactModel = ContactModel()
 
     @property
     def total_mass(self) -> float:
@@ -160,9 +183,20 @@ def numeric_paths(obj: Any, prefix: str = "") -> dict[str, Any]:
         value = getattr(obj, f.name)
         if dataclasses.is_dataclass(value):
             out.update(numeric_paths(value, f"{prefix}{f.name}."))
-        elif f.metadata:
+        elif f.metadata and f.metadata.get("sweep", True):
             out[f"{prefix}{f.name}"] = dict(f.metadata)
     return out
+
+
+def rolling_resistance_torque(c_rr, radius, total_mass, g_normal):
+    """Rolling-resistance torque on each wheel, N m: C_rr r times the wheel's static share of the
+    weight normal to the ground, m g cos(slope) / 4 (`g_normal` = g cos(slope), m/s^2).
+
+    It acts as the drive joint's friction loss: a torque of at most this size against the
+    wheel's rotation, so a wheel rolling at any speed feels it in full. The four-wheel sum is
+    exact on steady ground; the split ignores load transfer (README, "What the model leaves
+    out"). Works on floats and arrays alike."""
+    return c_rr * radius * total_mass * g_normal / 4
 
 
 def _fmt(*xs: float) -> str:
@@ -183,6 +217,7 @@ def mjcf(
     With `v.contacts == "ground"`, wheels collide with the ground and nothing else.
     """
     c, w, h, p, mo = v.chassis, v.wheel, v.hub, v.payload, v.motors
+    rolling = rolling_resistance_torque(w.rolling_resistance, w.radius, v.total_mass, abs(gravity[2]))
     # contype/conaffinity bits: wheels are 1, the ground 2; a wheel meets the ground
     # (1 & 1) but not another wheel (1 & 2 = 0) unless v.contacts is "all".
     wheel_aff = 2 if v.contacts == "ground" else 3
@@ -214,7 +249,8 @@ def mjcf(
               pos="{_fmt(hub_local[0], hub_local[1], 0)}" zaxis="0 1 0" mass="{h.mass:.10g}"
               contype="{hub_type}" conaffinity="{hub_aff}" rgba=".55 .55 .6 1"/>
         <body name="wheel_{name}" pos="{_fmt(wheel_local[0], wheel_local[1], 0)}">
-          <joint name="drive_{name}" type="hinge" axis="0 1 0" armature="{mo.armature:.10g}"/>
+          <joint name="drive_{name}" type="hinge" axis="0 1 0" armature="{mo.armature:.10g}"
+                 frictionloss="{rolling:.10g}"/>
           {wheel_geoms(name)}
         </body>
       </body>""")
@@ -240,7 +276,8 @@ def mjcf(
             f'biastype="affine" biasprm="0 0 {-mo.steer_kv:.10g}"/>'
         )
     return f"""<mujoco model="batchveh">
-  <option timestep="{time_step:.10g}" integrator="implicitfast" gravity="{_fmt(*gravity)}"/>
+  <option timestep="{time_step:.10g}" integrator="implicitfast" gravity="{_fmt(*gravity)}"
+          cone="{v.contact_model.cone}" impratio="{v.contact_model.impratio:.10g}"/>
   <visual><global offwidth="640" offheight="480"/></visual>
   <asset>
     <texture name="sky" type="skybox" builtin="gradient" rgb1=".5 .7 .9" rgb2=".9 .9 .95" width="64" height="64"/>

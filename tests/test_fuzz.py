@@ -24,9 +24,9 @@ from hypothesis import strategies as st  # noqa: E402
 
 import batchveh  # noqa: E402
 from batchveh.config import ConfigError  # noqa: E402
-from batchveh.stats import STATUS  # noqa: E402
 from batchveh.params import base_params, parameter_specs  # noqa: E402
 from batchveh.scenarios import SCENARIOS, numeric_fields  # noqa: E402
+from batchveh.stats import STATUS  # noqa: E402
 from batchveh.vehicle import numeric_paths  # noqa: E402
 
 EXAMPLES = int(os.environ.get("BATCHVEH_FUZZ_EXAMPLES", "8"))

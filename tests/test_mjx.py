@@ -15,14 +15,16 @@ from batchveh.run import simulate
 from batchveh.scenarios import make_scenario
 from batchveh.vehicle import MOTORS
 
-# N m: measured 1.9e-6 (MJX's solver tolerance; 7e-8 of the 29 N m peak) against MuJoCo C run with
-# its control laws in float64. simulate(backend="mujoco") evaluates them in float32 (JAX's default
-# outside an x64 context): that alone moves the C torques by 6.3e-5 N m, and this test fails on it.
-F64_SERIES_ATOL = 1e-5
-F32_MEAN_ATOL = 0.01  # N m: measured 4.1e-3 (steering), 1.4e-3 (drive)
-# RMS difference / RMS torque: measured 0.95%, nearly all of it in the startup transient
-# (the steady second half agrees to 0.12%)
-F32_SERIES_RTOL = 0.025
+F64_SERIES_ATOL = 5e-4  # N m: measured 1.8e-4 with the elliptic cone (1.9e-6 pyramidal): MJX and C stop
+# their elliptic Newton iterations at the same tolerance on differently assembled cones
+# Per-motor steady means: measured up to 0.98 N m apart (drive_lr; steering 0.56 N m). Four wheels
+# locked to one speed are over-constrained, and with the elliptic cone's stiffer friction float32
+# round-off breaks the mirror symmetry that C keeps, so the split between wheels drifts (4e-3 N m
+# with MuJoCo's default contact). The sum that physics fixes agrees to F32_SUM_VS_C_RTOL.
+F32_MEAN_ATOL = 1.5  # N m
+F32_SUM_VS_C_RTOL = 1e-4  # measured 2.6e-5
+F32_SERIES_RTOL = 0.08  # measured 4.1% (0.95% with MuJoCo's default contact: the stiffer friction rows
+# amplify float32 round-off, mostly in the start-up transient; the steady means are checked to F32_MEAN_ATOL)
 # four-wheel mean vs m g sin(s) r: measured -4.2e-4, as MuJoCo C (-4.3e-4; contact penetration,
 # tests/test_physics.py); MJX float32 vs MuJoCo C: measured 1.3e-5
 SUM_RTOL = 1e-3
@@ -42,6 +44,7 @@ def test_mjx_float32_agrees_with_mujoco_c(vehicle):
     for m in MOTORS:
         np.testing.assert_allclose(j.stats[f"{m}_mean"], c.stats[f"{m}_mean"], atol=F32_MEAN_ATOL, err_msg=m)
     np.testing.assert_allclose(j.stats["drive_sum_mean"], slope_torque(vehicle, 10), rtol=SUM_RTOL)
+    np.testing.assert_allclose(j.stats["drive_sum_mean"], c.stats["drive_sum_mean"], rtol=F32_SUM_VS_C_RTOL)
 
 
 def test_mjx_float64_matches_mujoco_c_step_by_step(vehicle, mjx_output_dtypes):

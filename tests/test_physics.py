@@ -28,13 +28,14 @@ SUM_RTOL_SPHERE = 2e-3  # one contact per wheel sinks deeper: measured -7.8e-4 a
 SUM_ATOL_FLAT = 1e-5  # N m at 0 deg, where the closed form is 0: measured 1.0e-6 (10x: round-off scale)
 MIRROR_ATOL = 3e-9  # N m, left vs right wheel on a straight line (mirror symmetry): measured up to 7.1e-10
 # steady tracking on a 20 deg slope at mu 0.9, straight line (window 2..4 s after a 1 s ramp)
-SPEED_TRACK_RTOL = 2e-6  # mean wheel-speed error, relative: measured 6.7e-7
+SPEED_TRACK_RTOL = 2e-4  # mean wheel-speed error, relative: measured 7.6e-5 (elliptic, impratio 10: the stiffer
+# friction holds the rim against the servo; 6.7e-7 with MuJoCo's default contact)
 STEER_TRACK_DEG = 0.1  # steering angle under the slope's aligning load: measured 0.040 deg
 # pivot on the same slope: its window (2.5..5 s) holds the drive ramp (2..4 s), so the servo lags
 PIVOT_SPEED_TRACK_RTOL = 5e-3  # measured 1.45e-3
 PIVOT_STEER_TRACK_DEG = 0.25  # measured 0.080 deg
 STEER_END_DEG = 0.05  # seed scenario 2's final steering angles: measured 0.020 deg
-DT_HALVING_RTOL = 1e-8  # the steady mean is a quasi-static force balance; measured 1.4e-9 (7x: round-off)
+DT_HALVING_RTOL = 1e-5  # the steady mean is a quasi-static force balance; measured 9.6e-7 (the issue allows 0.5%)
 FREE_WHEEL_RTOL = 1e-3  # towing wheel speed vs v_forward / r: measured +4.7e-4 (penetration, above)
 # sliding (tan s > mu): the chassis accelerates down the slope at g (mu cos s - sin s), a momentum
 # balance over the window: measured -0.23% (20 deg), -0.22% (25 deg); +0.55% at 30 deg
@@ -50,7 +51,7 @@ ACKERMANN_YAW_RTOL = 0.015  # measured -0.54% (R 3 m, 2 km/h), -0.37% (R -5 m, 4
 ACKERMANN_RADIUS_RTOL = 0.015  # path radius of the chassis origin: measured +0.67%, +0.62%
 CRAB_ANGLE_DEG = 0.01  # travel direction relative to the heading: measured 6e-4 deg
 CRAB_SPEED_RTOL = 1e-3  # chassis speed vs the rim speed: measured -2.3e-4 (penetration)
-SYMMETRY_ATOL_M = 1e-12  # m, pivot centre drift; zero by symmetry, measured 1.5e-16 (round-off only)
+SYMMETRY_ATOL_M = 1e-6  # m, pivot centre drift; zero by symmetry, measured 2.5e-8 (elliptic cone solver round-off)
 RAMP_ACCEL_RTOL = 5e-3  # chassis acceleration over the drive ramp vs 1 m/s^2: measured -1.3e-3
 STEADY_ACCEL_ATOL = 2e-8  # m/s^2 after the ramp: measured 5.7e-9
 
@@ -273,4 +274,4 @@ def test_sphere_wheel_contacts_keep_the_slope_physics(vehicle):
     np.testing.assert_allclose(b.body_inertia, a.body_inertia, rtol=1e-12)
     s = simulate(sphere, straight(15)).stats
     np.testing.assert_allclose(s["drive_sum_mean"], slope_torque(vehicle, 15), rtol=SUM_RTOL_SPHERE)
-    assert not s["slipping"] and s["speed_track_err"] < SPEED_TRACK_RTOL  # measured 6.4e-8
+    assert not s["slipping"] and s["speed_track_err"] < SPEED_TRACK_RTOL  # measured 3.3e-5

@@ -68,21 +68,31 @@ def test_invalid_windows_and_runs_are_refused_before_work(tmp_path, capsys, fixe
 
 
 def test_mujoco_c_reports_divergence_and_never_inf_under_ok(tmp_path, capfd):
-    # 35 deg, mu 0.9, 50 km/h: the vehicle tumbles and MuJoCo finds a huge qacc at t = 5.1 s
-    # (MuJoCo printed "WARNING: Nan, Inf or huge value in QACC"; the run was reported flipped);
-    # the other variant climbs normally
+    # 55 and 60 deg, mu 0.9, 50 km/h, 500 kg payload: the vehicle tumbles and MuJoCo finds a huge
+    # qacc at about 5 s (it printed "WARNING: Nan, Inf or huge value in QACC" and the run was
+    # reported flipped, since MuJoCo resets such a simulation); 10 deg climbs normally
     path = _spec(
         tmp_path,
-        fixed={"total_time": 10.0, "friction": 0.9, "speed_kmh": 50.0},
-        sweep={"method": "grid", "params": {"slope_deg": [10, 35]}},
+        fixed={"total_time": 10.0, "friction": 0.9, "speed_kmh": 50.0, "payload.mass": 500.0},
+        sweep={"method": "grid", "params": {"slope_deg": [10, 55, 60]}},
     )
     summary = run_sweep(load_spec(path), backend="mujoco", progress=False)
     df = batchveh.load(tmp_path / "r")
-    assert list(df.status) == ["ok", "diverged"], list(df.status)
-    assert summary["diverged"] == 1 and "QACC" in summary["engine_warnings"][0]
+    assert list(df.status) == ["ok", "diverged", "diverged"], list(df.status)
+    assert summary["diverged"] == 2 and "QACC" in summary["engine_warnings"][0]
     assert "WARNING" not in capfd.readouterr().out  # MuJoCo's message became data, not output
     stat_cols = [c for c in df.columns if c.startswith(("drive", "steer"))]
     assert np.isfinite(df.loc[df.status == "ok", stat_cols].to_numpy()).all()
+
+
+def test_a_variant_mujoco_resets_is_diverged_not_ok(tmp_path):
+    """A servo gain of 1e12 makes MuJoCo find a huge qacc in the first steps and reset the
+    simulation, which then sits still: finite, not flipped. It must not pass as ok."""
+    path = _spec(tmp_path, sweep={"method": "zip", "params": {"motors.drive_kv": [500, 1e12], "slope_deg": [5, 5]}})
+    run_sweep(load_spec(path), backend="mujoco", progress=False)
+    df = batchveh.load(tmp_path / "r")
+    assert list(df.status) == ["ok", "diverged"], list(df.status)
+    assert df.max_roll_deg[1] < 1.0  # it did not flip
 
 
 def test_statistics_of_a_huge_state_are_diverged():

@@ -68,18 +68,45 @@ def test_small_cholesky_patch_is_scoped():
     assert jax.scipy.linalg.cho_factor is before
 
 
-def test_fused_solver_float32_agrees_with_mujoco_c(vehicle):
+@pytest.fixture(scope="module")
+def pyramidal(vehicle):
+    """The fused solver handles pyramidal cones (an elliptic one goes to MJX's own solver); its
+    tolerances below were measured with MuJoCo's own contact defaults (impratio 1)."""
+    import dataclasses
+
+    cm = dataclasses.replace(vehicle.contact_model, cone="pyramidal", impratio=1.0)
+    return dataclasses.replace(vehicle, contact_model=cm)
+
+
+def test_elliptic_cone_falls_back_to_mjx_solver(vehicle):
+    from batchveh import solver
+
+    sc = make_scenario("straight_line", total_time=0.1, ramp_time=0.05)
+    before = dict(solver.TRACES)
+    with fused_solver():
+        simulate(vehicle, sc, backend="mjx")
+    assert vehicle.contact_model.cone == "elliptic"
+    assert solver.TRACES["fused"] == before["fused"] and solver.TRACES["mjx"] > before["mjx"]
+
+
+def test_fused_solver_float32_agrees_with_mujoco_c(pyramidal):
+    from batchveh import solver
+
+    vehicle = pyramidal
     sc = make_scenario("straight_line", slope_deg=10, friction=0.9, total_time=3.0, ramp_time=1.0)
     c = simulate(vehicle, sc, backend="mujoco")
+    before = solver.TRACES["fused"]
     with fused_solver():
         f = simulate(vehicle, sc, backend="mjx")
+    assert solver.TRACES["fused"] > before  # the fused solve was traced into the program that ran
     a, b = c.series[list(MOTORS)].to_numpy(), f.series[list(MOTORS)].to_numpy()
     assert np.sqrt(np.mean((a - b) ** 2)) <= F32_SERIES_RTOL * np.sqrt(np.mean(a**2))
     np.testing.assert_allclose(f.stats["drive_sum_mean"], slope_torque(vehicle, 10), rtol=SUM_RTOL)
     np.testing.assert_allclose(f.stats["drive_sum_mean"], c.stats["drive_sum_mean"], rtol=SUM_VS_C_RTOL)
 
 
-def test_fused_solver_float64_matches_mujoco_c_step_by_step(vehicle, mjx_output_dtypes):
+def test_fused_solver_float64_matches_mujoco_c_step_by_step(pyramidal, mjx_output_dtypes):
+    vehicle = pyramidal
     sc = make_scenario("straight_line", slope_deg=10, friction=0.9, total_time=2.0, ramp_time=1.0)
     c = simulate(vehicle, sc, backend="mujoco").series[list(MOTORS)].to_numpy()
     with fused_solver():
