@@ -170,6 +170,50 @@ def _lowpass(y0, x, a, xp):
     return y
 
 
+def _span(inw, xp) -> str | None:
+    """'all' or 'none' where a numpy block lies wholly inside or outside the window; None for a
+    mixed block or traced (JAX) values. The fast paths it selects give the same bits as the
+    masked forms: 1.0 * x is x, and 0.0 * x is a signed zero, or NaN where x is not finite."""
+    if xp is not np:
+        return None
+    if inw.all():
+        return "all"
+    return None if inw.any() else "none"
+
+
+def _wsum(c, w, x, span, axis, xp):
+    """c + (w * x).sum(axis) for step weights w of 0 or 1, with the masks skipped where `span` allows."""
+    if span == "all":
+        return c + x.sum(axis)
+    if span == "none":  # every term 0 * x: the carry is unchanged unless some x is not finite
+        return c + xp.where(xp.isfinite(x).all(axis), 0.0, np.nan)
+    return c + (w * x).sum(axis)
+
+
+def _wmax(c, inw, x, span, xp):
+    """max(c, largest x over the block's steps inside the window); x (..., B, K) is >= 0."""
+    if span == "none":
+        return c
+    return xp.maximum(c, (x if span == "all" else xp.where(inw[:, None], x, 0.0)).max(-2))
+
+
+def _store(buf, slot, absx, xp):
+    """buf with row slot[b] set to absx[..., b, :] for each step b of the block with slot[b] >= 0."""
+    if xp is np:  # numpy: write the rows that are hit, nothing else (the slots of a block are distinct)
+        b = np.flatnonzero(slot >= 0)
+        if not b.size:
+            return buf
+        buf, k, d = buf.copy(), slot[b], (b[1] - b[0] if b.size > 1 else 1)
+        if (np.diff(b) == d).all() and (np.diff(k) == 1).all():  # every stride-th step: slices, not a gather
+            buf[..., k[0] : k[-1] + 1, :] = absx[..., b[0] : b[-1] + 1 : d, :]
+        else:
+            buf[..., k, :] = absx[..., b, :]
+        return buf
+    hit = xp.arange(buf.shape[-2])[:, None] == slot[None, :]  # (K, B): slot k takes step b of the block
+    taken = xp.take(absx, xp.argmax(hit, axis=-1), axis=-2)  # a gather: cost n K C, not n K B C
+    return xp.where(hit.any(-1)[:, None], taken, buf)
+
+
 def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> dict[str, Any]:
     """Fold a block of B steps' samples `s` (after steps i, shape (B,)) into carry `c`.
 
@@ -177,28 +221,33 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
     (..., B, 4) wheel speed rad/s; ref (..., B, 8) imposed omega (rad/s) and alpha
     (rad); alpha (..., B, 4) steering angle rad; pos (..., B, 3) m; quat (..., B, 4);
     vel (..., B, 3) chassis linear velocity m/s (world). The MJX scan folds blocks
-    of one step; the MuJoCo C backend folds blocks of a rollout.
+    of one step; the MuJoCo C backend folds blocks of a rollout, cheapest when each
+    block lies wholly inside or outside the steady window (`_span`).
     """
     tau = xp.concatenate([s["tau"], s["tau"][..., :4].sum(-1, keepdims=True)], axis=-1)
     absx = xp.abs(tau)
     inw = (i >= cfg.first) & (i <= cfg.last)  # (B,)
+    span = _span(inw, xp)
     w = xp.where(inw, 1.0, 0.0)
     wk = w[:, None]
     out = dict(c)
     out["n"] = c["n"] + w.sum()
-    out["sum"] = c["sum"] + (wk * tau).sum(-2)
-    out["sumsq"] = c["sumsq"] + (wk * tau * tau).sum(-2)
-    out["min"] = xp.minimum(c["min"], xp.where(inw[:, None], tau, np.inf).min(-2))
-    out["max"] = xp.maximum(c["max"], xp.where(inw[:, None], tau, -np.inf).max(-2))
+    out["sum"] = _wsum(c["sum"], wk, tau, span, -2, xp)
+    if span is None:
+        out["sumsq"] = c["sumsq"] + (wk * tau * tau).sum(-2)
+    else:  # (w tau) tau: tau * tau inside, 0 * tau (then * tau: the same zero or NaN) outside
+        out["sumsq"] = _wsum(c["sumsq"], wk, tau * tau if span == "all" else tau, span, -2, xp)
+    if span != "none":
+        out["min"] = xp.minimum(c["min"], (tau if span == "all" else xp.where(inw[:, None], tau, np.inf)).min(-2))
+        out["max"] = xp.maximum(c["max"], (tau if span == "all" else xp.where(inw[:, None], tau, -np.inf)).max(-2))
     slot = xp.where(inw & ((i - cfg.first) % cfg.stride == 0), (i - cfg.first) // cfg.stride, -1)  # (B,)
-    hit = xp.arange(cfg.n_buf)[:, None] == slot[None, :]  # (K, B): slot k takes step b of the block
-    taken = xp.take(absx, xp.argmax(hit, axis=-1), axis=-2)  # a gather: cost n K C, not n K B C
-    out["buf"] = xp.where(hit.any(-1)[:, None], taken, c["buf"])
+    out["buf"] = _store(c["buf"], slot, absx, xp)
     out["peak_all"] = xp.maximum(c["peak_all"], absx.max(-2))
     lp = _lowpass(c["lp"], tau, cfg.dt / (cfg.lowpass_s + cfg.dt), xp)
     out["lp"] = lp[..., -1, :]
-    out["lp_peak"] = xp.maximum(c["lp_peak"], xp.where(inw[:, None], xp.abs(lp), 0.0).max(-2))
-    out["lp_peak_all"] = xp.maximum(c["lp_peak_all"], xp.abs(lp).max(-2))
+    abs_lp = xp.abs(lp)
+    out["lp_peak"] = _wmax(c["lp_peak"], inw, abs_lp, span, xp)
+    out["lp_peak_all"] = xp.maximum(c["lp_peak_all"], abs_lp.max(-2))
     power = s["tau"][..., :4] * s["omega"]
     out["energy"] = c["energy"] + power.sum(-2) * cfg.dt
     out["power_peak"] = xp.maximum(c["power_peak"], xp.abs(power).max(-2))
@@ -208,24 +257,28 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
     out["roll"] = xp.maximum(c["roll"], xp.abs(roll).max(-1))
     out["pitch"] = xp.maximum(c["pitch"], xp.abs(pitch).max(-1))
     sane = (
-        xp.all(xp.abs(tau) < HUGE_TORQUE, axis=(-2, -1))  # False for NaN too
+        xp.all(absx < HUGE_TORQUE, axis=(-2, -1))  # False for NaN too
         & xp.all(xp.abs(s["vel"]) < HUGE_SPEED, axis=(-2, -1))
         & xp.all(xp.abs(s["pos"]) < HUGE_POSITION, axis=(-2, -1))
     )
     out["bad"] = xp.maximum(c["bad"], xp.where(sane, 0.0, 1.0))
     v_fwd = vel[..., 0] * xp.cos(yaw) + vel[..., 1] * xp.sin(yaw)
-    out["v_fwd"] = c["v_fwd"] + (w * v_fwd).sum(-1)
+    out["v_fwd"] = _wsum(c["v_fwd"], w, v_fwd, span, -1, xp)
     # least-squares trend of the forward speed over the window (t relative to its start)
-    tw = w * (i - cfg.first) * cfg.dt
-    out["tv"] = c["tv"] + (tw * v_fwd).sum(-1)
-    out["t"] = c["t"] + tw.sum()
-    out["tt"] = c["tt"] + (tw * tw).sum()
-    out["v_rim"] = c["v_rim"] + (w * s["rim"]).sum(-1)
-    out["omega"] = c["omega"] + (w * s["omega"].mean(-1)).sum(-1)
-    out["speed_err"] = c["speed_err"] + (wk * (s["omega"] - s["ref"][..., :4])).sum(-2)
-    out["speed_ref"] = c["speed_ref"] + (wk * s["ref"][..., :4]).sum(-2)
-    steer_err = xp.where(inw[:, None], xp.abs(s["alpha"] - s["ref"][..., 4:]), 0.0).max(-2)
-    out["steer_err"] = xp.maximum(c["steer_err"], steer_err)
+    if span == "none":  # tw is a signed zero at every step: t and tt keep their values
+        out["tv"] = _wsum(c["tv"], w, v_fwd, span, -1, xp)
+    else:
+        tw = w * (i - cfg.first) * cfg.dt
+        out["tv"] = c["tv"] + (tw * v_fwd).sum(-1)
+        out["t"] = c["t"] + tw.sum()
+        out["tt"] = c["tt"] + (tw * tw).sum()
+    out["v_rim"] = _wsum(c["v_rim"], w, s["rim"], span, -1, xp)
+    out["omega"] = _wsum(c["omega"], w, s["omega"].mean(-1), span, -1, xp)
+    ref_w = s["ref"][..., :4]
+    out["speed_err"] = _wsum(c["speed_err"], wk, s["omega"] - ref_w, span, -2, xp)
+    out["speed_ref"] = _wsum(c["speed_ref"], wk, ref_w, span, -2, xp)
+    if span != "none":
+        out["steer_err"] = _wmax(c["steer_err"], inw, xp.abs(s["alpha"] - s["ref"][..., 4:]), span, xp)
     out["pose"] = xp.stack([s["pos"][..., -1, 0], s["pos"][..., -1, 1], yaw[..., -1]], axis=-1)
     return out
 

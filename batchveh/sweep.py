@@ -223,12 +223,14 @@ def estimate(backend: str, variant_steps: int) -> tuple[float, str]:
 def dry_run(spec: SweepSpec, limit: int | None, backend: str, max_variants: int = MAX_VARIANTS) -> str:
     """Variant count and a rough memory and time estimate, without building the variants."""
     from batchveh.engines import resolve_backend
+    from batchveh.engines.common import CPU_CHUNK
 
     n = count_variants(spec, limit, max_variants)
     backend = resolve_backend(backend)
     steps = spec.scenario.n_steps
     seconds, basis = estimate(backend, n * steps)
-    mem_mb = min(n, 1024) * 0.05 + 200 if backend == "mujoco" else min(n, 131072) * 0.02 + 500
+    # about 0.2 MB per variant of a MuJoCo C chunk (records of a 100-step block, statistics)
+    mem_mb = min(n, CPU_CHUNK["mujoco"]) * 0.2 + 200 if backend == "mujoco" else min(n, 131072) * 0.02 + 500
     return (
         f"{spec.name}: {n:,} variants x {steps:,} steps; about {_duration(seconds)} ({basis}) "
         f"and {mem_mb:,.0f} MB; results would go to {spec.output}"

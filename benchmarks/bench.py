@@ -3,22 +3,25 @@
     python benchmarks/bench.py                       # CPU: peers + mjx on CPU (small)
     python benchmarks/bench.py --mjx-sizes 1024 8192 65536 --solvers newton4 newton8 default
 
-Rows: a serial mj_step loop, raw mujoco.batch.Batch on all threads, batchveh's
-mujoco backend, batchveh mjx at each batch size and solver setting. Rates are
-variant-steps/s (and simulated seconds per wall second); ratios are against raw
-mujoco.batch measured in the same run. Accuracy: mean and peak (steady window,
-raw and 50 ms low-pass) torques of a fixed sample of the slope variants against
-MuJoCo C in float64 with tolerance 1e-12 and 200 iterations; relative errors,
-non-slipping and slipping variants reported apart. Results are printed as a
-table and written to benchmarks/results/<tag>.json; render.py folds them into
-RESULTS.md.
+Rows: raw mujoco.batch at its best (Batch.rollout in blocks with the controls
+precomputed, recording qpos, qvel and qfrc_actuator as batchveh does; its batch
+size, block length and thread count picked by a short scan recorded in the JSON,
+and measured again after the mjx rows: the ratio uses the mean of both runs),
+the older peer (one Batch.step per step on 512 variants, for reference), a
+serial mj_step loop, batchveh's mujoco engine, batchveh mjx at each batch size
+and solver setting. Rates are variant-steps/s (and simulated seconds per wall
+second); ratios are against the raw peer measured in the same run. Accuracy:
+mean and peak (steady window, raw and 50 ms low-pass) torques of a fixed sample
+of the slope variants against MuJoCo C in float64 with tolerance 1e-12 and 200
+iterations; relative errors, non-slipping and slipping variants reported apart.
+Results are printed as a table and written to benchmarks/results/<tag>.json;
+render.py folds them into RESULTS.md.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import platform
 import sys
 import time
@@ -52,12 +55,12 @@ def slope_table(n: int, seed: int = 0):
     """n variants drawn (fixed seed) from sweeps/slope.yaml's grid, on the chosen wheel collision shape."""
     import dataclasses
 
-    from batchveh.spec import load_spec, variants
+    from batchveh.spec import load_spec, variant_table
 
     spec = load_spec(Path(__file__).resolve().parent.parent / "sweeps" / "slope.yaml")
     wheel = dataclasses.replace(spec.vehicle.wheel, collision=WHEEL_COLLISION)
     spec = dataclasses.replace(spec, vehicle=dataclasses.replace(spec.vehicle, wheel=wheel))
-    grid = variants(spec)
+    grid = variant_table(spec)
     idx = np.random.default_rng(seed).choice(len(grid), size=n, replace=n > len(grid))
     return spec, grid.iloc[idx].drop(columns="variant").reset_index(drop=True)
 
@@ -70,7 +73,7 @@ def _cols(table, spec):
 
 def set_solver(m, name: str, tolerance: float | None = None):
     """The named SOLVERS setting (and a tolerance, for the reference) through batchveh's own setter."""
-    from batchveh.variants import apply_solver
+    from batchveh.batch import apply_solver
 
     solver, it, ls = SOLVERS[name]
     apply_solver(
@@ -86,12 +89,12 @@ def set_solver(m, name: str, tolerance: float | None = None):
 
 def mjx_model(spec, table, solver: str):
     """The batched MJX model of the table's variants with the named SOLVERS setting, and its in_axes."""
-    from batchveh.rollout import put_batch
-    from batchveh.variants import make_batch
+    from batchveh.batch import make_batch
+    from batchveh.batch import mjx_model as put
 
     batch = make_batch(spec.vehicle, spec.scenario, _cols(table, spec))
     set_solver(batch.model, solver)
-    return put_batch(batch)
+    return put(batch)
 
 
 def settled(m, axes, steps: int = 100):
@@ -124,7 +127,7 @@ def best_time(fn, *args, repeat: int = 10) -> float:
 def bench_serial(spec, table, n_steps):
     import mujoco
 
-    from batchveh.variants import make_batch
+    from batchveh.batch import make_batch
 
     batch = make_batch(spec.vehicle, spec.scenario, _cols(table, spec))
     m = batch.model
@@ -141,10 +144,60 @@ def bench_serial(spec, table, n_steps):
     return batch.n * n_steps / (time.perf_counter() - t0)
 
 
-def bench_raw_batch(spec, table, n_steps):
+def raw_controls(spec, batch, n_steps: int) -> np.ndarray:
+    """(n, n_steps, nu) float64: every variant's controls at every step, as batchveh's engines compute them
+    (the scenario's schedule), so the peer steps the same simulations."""
+    import jax
+    import jax.numpy as jnp
+
+    from batchveh.scenarios import control_schedule
+
+    f = jax.jit(jax.vmap(control_schedule(spec.scenario), in_axes=(0, None)))
+    params = {k: jnp.asarray(v) for k, v in batch.params.items()}
+    return np.asarray(f(params, jnp.asarray(np.arange(n_steps) * batch.model.opt.timestep)), np.float64)
+
+
+RECORD = ("qpos", "qvel", "qfrc_actuator")  # what batchveh's mujoco engine records for its statistics
+PEER_DEFAULT = {"variants": 4096, "block": 100, "threads": 0}  # without a scan (0 threads: all CPUs)
+
+
+def bench_raw_rollout(spec, table, n_steps, block: int = 100, nthread: int = 0, size: int | None = None):
+    """Raw mujoco.batch at its best: Batch.rollout in blocks of `block` steps with the controls precomputed
+    (outside the clock), recording qpos, qvel and qfrc_actuator as batchveh does, in batches of `size`
+    variants (default: all of the table in one). Returns (variant-steps/s, MuJoCo threads); the clock
+    covers the rollout calls only."""
     from mujoco.batch import Batch
 
-    from batchveh.variants import make_batch
+    from batchveh.batch import make_batch
+    from batchveh.engines.mujoco import cpus
+
+    size, nthread = size or len(table), nthread or cpus()
+    wall = 0.0
+    for start in range(0, len(table), size):
+        batch = make_batch(spec.vehicle, spec.scenario, _cols(table.iloc[start : start + size], spec))
+        ctrl = raw_controls(spec, batch, n_steps)
+        blocks = [np.ascontiguousarray(ctrl[:, s : s + block]) for s in range(0, n_steps, block)]
+        del ctrl
+        b = Batch(batch.model, nsim=batch.n, nthread=nthread)
+        for name, values in batch.fields.items():
+            b.expand(name)[:] = values
+        b.reset()
+        m = batch.model
+        dims = {"qpos": m.nq, "qvel": m.nv, "qfrc_actuator": m.nv}
+        outs = {k: {r: np.empty((batch.n, k, d)) for r, d in dims.items()} for k in {c.shape[1] for c in blocks}}
+        t0 = time.perf_counter()
+        for c in blocks:
+            b.rollout(c.shape[1], control=c, record=RECORD, out=outs[c.shape[1]])
+        wall += time.perf_counter() - t0
+    return len(table) * n_steps / wall, nthread
+
+
+def bench_raw_step(spec, table, n_steps):
+    """The older peer: one Batch.step() per step on all threads, the controls written each step (a
+    drive ramp, not the scenario's schedule), nothing recorded. Returns (variant-steps/s, threads)."""
+    from mujoco.batch import Batch
+
+    from batchveh.batch import make_batch
 
     batch = make_batch(spec.vehicle, spec.scenario, _cols(table, spec))
     b = Batch(batch.model, nsim=batch.n)
@@ -160,16 +213,55 @@ def bench_raw_batch(spec, table, n_steps):
     return batch.n * n_steps / (time.perf_counter() - t0), b.nthread
 
 
+def scan_peer(spec, n_steps, sizes, blocks, threads, log=print):
+    """A short scan of the raw peer's settings, one factor at a time: batch size (block 100, all
+    threads), then block length at the best size, then thread count at the best of both. Each point
+    runs the full n_steps on `size` variants of the slope table. Returns (best settings, scan rows)."""
+    rows = []
+
+    def point(size, block, th):
+        _, table = slope_table(size, seed=2)
+        rate, used = bench_raw_rollout(spec, table, n_steps, block, th)
+        rows.append({"variants": size, "block": block, "threads": used, "rate": rate})
+        log(f"peer scan: {size} variants, block {block}, {used} threads: {rate:.3g} variant-steps/s")
+        return rate
+
+    best = max(sizes, key=lambda n: point(n, 100, 0))
+    best_block = max(blocks, key=lambda k: point(best, k, 0) if k != 100 else _rate(rows, best, 100))
+    from batchveh.engines.mujoco import cpus
+
+    all_cpus = cpus()
+    best_th = max(
+        threads, key=lambda t: point(best, best_block, t) if t not in (0, all_cpus) else _rate(rows, best, best_block)
+    )
+    return {"variants": best, "block": best_block, "threads": best_th or all_cpus}, rows
+
+
+def _rate(rows, size, block):
+    return max(r["rate"] for r in rows if r["variants"] == size and r["block"] == block)
+
+
 def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="highest", impl="auto", nthread=0):
     """(columns, wall s, compile s, peak device bytes) of batchveh's backend on the table."""
     import jax
 
-    from batchveh import engine, stats
-    from batchveh.variants import make_batch
+    from batchveh import stats
+    from batchveh.batch import make_batch
+    from batchveh.engines import make_engine
 
     sc = spec.scenario
-    cfg = stats.StatsConfig.make(sc.time_step, sc.n_steps, spec.window, wheel_radius=spec.vehicle.wheel.radius)
-    be = engine.make_backend(kind, sc, cfg, chunk, matmul_precision=matmul, solver_impl=impl, nthread=nthread)
+    cfg = stats.StatsConfig.make(sc.time_step, sc.n_steps, spec.window)
+    be = make_engine(
+        kind,
+        sc,
+        cfg,
+        chunk,
+        len(table),
+        precision="f64" if x64 and kind == "mjx" else "f32",
+        matmul_precision=matmul,
+        solver_impl=impl,
+        nthread=nthread,
+    )
     out, t_run = [], 0.0
     for start in range(0, len(table), be.chunk_size):
         batch = make_batch(spec.vehicle, sc, _cols(table.iloc[start : start + be.chunk_size], spec))
@@ -221,7 +313,13 @@ def accuracy(cols, ref):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--tag", default=None, help="result name (default: device kind)")
-    ap.add_argument("--cpu-variants", type=int, default=512, help="variants for the CPU peers")
+    ap.add_argument("--cpu-variants", type=int, default=1024, help="variants for batchveh mujoco and the serial loop")
+    ap.add_argument("--no-peer-scan", dest="peer_scan", action="store_false", help="skip the peer's scan")
+    ap.add_argument("--scan-sizes", type=int, nargs="+", default=[1024, 2048, 4096, 8192], help="peer batch sizes")
+    ap.add_argument("--scan-blocks", type=int, nargs="+", default=[50, 100, 250], help="peer rollout block lengths")
+    ap.add_argument("--peer-variants", type=int, default=PEER_DEFAULT["variants"], help="peer batch, without scan")
+    ap.add_argument("--peer-block", type=int, default=PEER_DEFAULT["block"], help="peer block, without scan")
+    ap.add_argument("--peer-threads", type=int, default=PEER_DEFAULT["threads"], help="0: every usable CPU; no scan")
     ap.add_argument("--serial-variants", type=int, default=8)
     ap.add_argument("--ref-variants", type=int, default=256, help="sample for the accuracy reference")
     ap.add_argument("--mjx-sizes", type=int, nargs="*", default=[256])
@@ -249,6 +347,8 @@ def main():
     import jax
     import mujoco
 
+    from batchveh.engines.mujoco import cpus
+
     spec, _ = slope_table(1)
     n_steps = spec.scenario.n_steps
     sim_s = spec.scenario.total_time
@@ -258,7 +358,7 @@ def main():
     info = {
         "date": time.strftime("%Y-%m-%d"),
         "device": f"{len(jax.devices())} x {dev.device_kind}",
-        "cpu_threads": os.cpu_count(),
+        "cpu_threads": cpus(),
         "mujoco": mujoco.__version__,
         "jax": jax.__version__,
         "python": platform.python_version(),
@@ -274,23 +374,39 @@ def main():
     ref, *_ = run_backend("mujoco", spec, ref_table, args.ref_variants, "default", x64=True)
     print(f"reference: {args.ref_variants} variants in {time.perf_counter() - t0:.1f} s", flush=True)
 
-    raw_rate = None
+    raw_rate = info["peer"] = None
     if not args.skip_cpu:
+        ncpu = cpus()
+        if args.peer_scan:
+            threads = [ncpu, ncpu - 1] if ncpu >= 8 else [ncpu]
+            peer, scan = scan_peer(spec, n_steps, args.scan_sizes, args.scan_blocks, threads)
+        else:
+            peer, scan = {"variants": args.peer_variants, "block": args.peer_block, "threads": args.peer_threads}, []
+        info["peer"] = {
+            **peer,
+            "api": "Batch.rollout in blocks, controls precomputed, recording qpos, qvel, qfrc_actuator",
+            "scan": scan,
+        }
+        _, peer_table = slope_table(peer["variants"], seed=2)
+        raw_rate, nthread = bench_raw_rollout(spec, peer_table, n_steps, peer["block"], peer["threads"])
+        peer_name = f"raw mujoco.batch rollout ({peer['variants']} variants, block {peer['block']}, {nthread} threads)"
+        rows.append({"name": peer_name, "rate": raw_rate, "peer_runs": [raw_rate]})
+        _, old_table = slope_table(512, seed=2)
+        old, old_threads = bench_raw_step(spec, old_table, n_steps)
+        rows.append({"name": f"older peer: Batch.step per step, 512 variants ({old_threads} threads)", "rate": old})
         _, cpu_table = slope_table(args.cpu_variants, seed=2)
-        raw_rate, nthread = bench_raw_batch(spec, cpu_table, n_steps)
-        rows.append({"name": f"raw mujoco.batch ({nthread} threads)", "rate": raw_rate})
         ser = bench_serial(spec, cpu_table.iloc[: args.serial_variants], n_steps)
         rows.append({"name": "serial mj_step loop (1 thread)", "rate": ser})
-        cols, wall, _, _ = run_backend("mujoco", spec, cpu_table, args.cpu_variants)
-        from batchveh.engine import default_threads
+        cols, wall, _, _ = run_backend("mujoco", spec, cpu_table, None)
+        from batchveh.engines.mujoco import default_threads
 
-        label = f"batchveh mujoco ({default_threads()} threads)"
+        label = f"batchveh mujoco ({default_threads()} threads, {args.cpu_variants} variants)"
         rows.append({"name": label, "rate": len(cpu_table) * n_steps / wall})
         cols_ref, *_ = run_backend("mujoco", spec, ref_table, args.ref_variants)
         rows[-1]["accuracy"] = accuracy(cols_ref, ref)
-        print(rows[-3:], flush=True)
+        print(rows[-4:], flush=True)
 
-    from batchveh.engine import resolve_solver_impl
+    from batchveh.engines import resolve_solver_impl
 
     configs = [
         (p == "f64", s, mm, resolve_solver_impl(i))
@@ -300,14 +416,13 @@ def main():
         for i in args.impls
     ]
     for x64, solver, mm, impl in configs:
-        jax.config.update("jax_enable_x64", x64)
-        cols_acc, *_ = run_backend("mjx", spec, ref_table, args.ref_variants, solver, matmul=mm, impl=impl)
+        cols_acc, *_ = run_backend("mjx", spec, ref_table, args.ref_variants, solver, x64, mm, impl)
         acc = accuracy(cols_acc, ref)
         label = f"batchveh mjx {solver} {impl} {'f64' if x64 else 'f32'}{'' if mm == 'highest' else ' mm=' + mm}"
         for size in args.mjx_sizes:
             _, table = slope_table(size, seed=3)
             try:
-                _, wall, comp, peak = run_backend("mjx", spec, table, size, solver, matmul=mm, impl=impl)
+                _, wall, comp, peak = run_backend("mjx", spec, table, size, solver, x64, mm, impl)
             except Exception as err:  # out of memory: record and go on
                 rows.append({"name": f"{label} n={size}", "error": str(err)[:200]})
                 continue
@@ -320,6 +435,11 @@ def main():
             }
             rows.append(row)
             print(row, flush=True)
+    if raw_rate and len(configs) and args.mjx_sizes:  # the peer again after the GPU rows: the mean of both
+        again, _ = bench_raw_rollout(spec, peer_table, n_steps, peer["block"], peer["threads"])
+        rows[0]["peer_runs"].append(again)
+        raw_rate = rows[0]["rate"] = sum(rows[0]["peer_runs"]) / 2
+        print(f"peer again: {again:.3g}; mean {raw_rate:.3g}", flush=True)
     for r in rows:
         if "rate" in r:
             r["sim_s_per_s"] = r["rate"] / n_steps * sim_s

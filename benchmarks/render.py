@@ -4,6 +4,7 @@ python benchmarks/render.py
 """
 
 import json
+import statistics
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -83,6 +84,66 @@ def profile_section(d, name):
     return "\n".join(lines)
 
 
+def peer_note(peer):
+    """How the raw peer ran, and the scan that chose it."""
+    text = (
+        f"Peer: {peer['api']}; {peer['variants']} variants per batch, blocks of {peer['block']} steps, "
+        f"{peer['threads']} threads"
+    )
+    if peer.get("scan"):
+        scan = ", ".join(f"{r['variants']}/{r['block']}/{r['threads']}: {r['rate']:.3g}" for r in peer["scan"])
+        text += f", the best of a scan (variants/block/threads: variant-steps/s): {scan}"
+    else:
+        text += " (settings given, no scan in this run)"
+    return text + "."
+
+
+def overhead_section(d, name):
+    """One cpu_overhead.py run: the ratio per alternated pair, the median over every pair, and the profile."""
+    keys = [k for k in d["pairs"][0] if k.startswith("ratio")]
+    if "peer" in d:  # run_sweep against the peer at its best
+        cmd = d["command"].split(" --note ")[0].split(" --out ")[0]
+        head = (
+            f"`python {cmd}` on {d['machine']}, {d['date']}: {d['variants']} variants x {d['steps']} steps, "
+            f"{d['solver']}. Peer: {d['peer']['api']}, {d['peer']['variants_per_batch']} variants per batch, "
+            f"blocks of {d['peer']['block']}, {d['peer']['threads']} threads. batchveh: {d['batchveh']}. "
+            f"{d['note']}. {('Code: ' + d['code'] + '. ') if 'code' in d else ''}"
+            f"(load average before/after: {d['load_average_before_after']}; "
+            f"raw data: `benchmarks/results/{name}`)."
+        )
+        cols = [k[6:].replace("chunk", "chunk ").replace("_threads", ", threads ") for k in keys]
+    else:  # the older format: engine.run against one Batch.step per step
+        head = (
+            f"`python benchmarks/cpu_overhead.py` (an earlier version): {d['variants']} variants x {d['steps']} "
+            f"steps, {d['cpu_threads']} CPU threads; measured against the older peer (one Batch.step per step, "
+            f"{d['variants']} variants, {d['mujoco_threads']} threads), batchveh's engine.run without make_batch "
+            f"or Parquet; columns: batchveh's MuJoCo threads (raw data: `benchmarks/results/{name}`)."
+        )
+        cols = [f"{k[6:]} threads" for k in keys]
+    lines = [
+        head,
+        "",
+        "| pair | raw variant-steps/s | " + " | ".join(f"x raw, {c}" for c in cols) + " |",
+        "| ---: | ---: | " + " | ".join("---:" for _ in keys) + " |",
+    ]
+    for i, p in enumerate(d["pairs"]):
+        lines.append(f"| {i + 1} | {p['raw']:.3g} | " + " | ".join(f"{p[k]:.3f}" for k in keys) + " |")
+    med = {k: statistics.median(p[k] for p in d["pairs"]) for k in keys}  # every pair, the first too
+    lines.append("| median, all pairs | | " + " | ".join(f"**{med[k]:.3f}**" for k in keys) + " |")
+    prof = d.get("profile")
+    if prof:
+        lines += [
+            "",
+            "Where one instrumented batchveh run's time went (first setting; worker rows are CPU time of the "
+            "fold and control threads, which run beside the stepping):",
+            "",
+            "| part | s | ns per variant-step |",
+            "| --- | ---: | ---: |",
+        ]
+        lines += [f"| {k} | {v['s']:.3f} | {v['ns_per_variant_step']:.0f} |" for k, v in prof.items()]
+    return "\n".join(lines)
+
+
 def main():
     out = [
         (HERE / "NOTES.md").read_text().rstrip(),
@@ -96,10 +157,22 @@ def main():
         "",
     ]
     for f in sorted((HERE / "results").glob("*.json")):
-        if any(k in f.name for k in ("scaling", "stages", "profile", "overhead")):
+        if any(k in f.name for k in ("scaling", "stages", "profile", "overhead", "mainjob")):
             continue
         d = json.loads(f.read_text())
-        out += [bench_table(d), "", f"(raw data: `benchmarks/results/{f.name}`)", ""]
+        out += [bench_table(d), ""]
+        if d["info"].get("peer"):
+            out += [peer_note(d["info"]["peer"]), ""]
+            out += [f"Code: {d['info']['code']}.", ""] if "code" in d["info"] else []
+        elif "peer" not in d["info"]:  # files from before the peer at its best
+            cmd = d["info"]["command"].split()
+            n = cmd[cmd.index("--cpu-variants") + 1] if "--cpu-variants" in cmd else "512"
+            out += [
+                f"Ratios measured against the older peer (one Batch.step per step, {n} variants, nothing "
+                "recorded): bench.py before the peer was measured at its best.",
+                "",
+            ]
+        out += [f"(raw data: `benchmarks/results/{f.name}`)", ""]
     stages = sorted((HERE / "results").glob("*stages*.json"))
     if stages:
         out += [
@@ -133,23 +206,26 @@ def main():
             profile_section(json.loads(f.read_text()), f.name),
             "",
         ]
-    for f in sorted((HERE / "results").glob("*overhead*.json")):
+    overhead = sorted((HERE / "results").glob("*overhead*.json"))
+    if overhead:
+        out += ["## batchveh mujoco against raw mujoco.batch, alternated", ""]
+    for f in overhead:
+        out += [overhead_section(json.loads(f.read_text()), f.name), ""]
+    for f in sorted((HERE / "results").glob("*mainjob*.json")):
         d = json.loads(f.read_text())
-        keys = [k for k in d["pairs"][0] if k.startswith("ratio")]
         out += [
-            "## batchveh mujoco against raw mujoco.batch, alternated",
+            "## The main job, end to end",
             "",
-            f"`python benchmarks/cpu_overhead.py`: {d['variants']} variants x {d['steps']} steps, "
-            f"{d['cpu_threads']} CPU threads, raw mujoco.batch on {d['mujoco_threads']} threads; "
-            "columns: batchveh's MuJoCo thread count (raw data: " + f"`benchmarks/results/{f.name}`).",
+            f"`python benchmarks/mainjob.py`: `{d['command']}` (10,602 variants x 1000 steps, MuJoCo C) as a fresh "
+            f"process, on {d['machine']}, {d['date']}. {d['note']} (raw data: `benchmarks/results/{f.name}`)",
             "",
-            "| pair | raw variant-steps/s | " + " | ".join(f"x raw, {k[6:]} threads" for k in keys) + " |",
-            "| ---: | ---: | " + " | ".join("---:" for _ in keys) + " |",
+            "| run | wall s | load average before / after | the sweep's summary |",
+            "| ---: | ---: | --- | --- |",
         ]
-        for i, p in enumerate(d["pairs"]):
-            out.append(f"| {i + 1} | {p['raw']:.3g} | " + " | ".join(f"{p[k]:.3f}" for k in keys) + " |")
-        med = d["median_ratio"]
-        out += ["| median of 2.. | | " + " | ".join(f"**{med[k]:.3f}**" for k in keys) + " |", ""]
+        for i, r in enumerate(d["runs"]):
+            load = " / ".join(f"{x:.1f}" for x in r["load_average_before_after"])
+            out.append(f"| {i + 1} | {r['wall_s']:.1f} | {load} | {' '.join(r['summary'])[:200]} |")
+        out.append("")
     scaling = sorted((HERE / "results").glob("*scaling*.json"))
     if scaling:
         out += [

@@ -25,7 +25,7 @@ def main():
     import jax
     from bench import run_backend, slope_table
 
-    from batchveh.engine import resolve_solver_impl
+    from batchveh.engines import resolve_solver_impl
 
     impl = resolve_solver_impl(args.impl)
 

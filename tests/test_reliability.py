@@ -208,7 +208,9 @@ def test_resume_names_the_setting_that_differs(tmp_path, capsys):
     err = _one_line(capsys, [*argv, "--limit", "3", "--resume"], 2)
     assert "n_variants (2, now 3)" in err
     err = _one_line(capsys, [*argv, "--limit", "2", "--chunk-size", "1", "--resume"], 2)
-    assert "chunk_size (1024, now 1)" in err
+    from batchveh.engines.common import CPU_CHUNK
+
+    assert f"chunk_size ({CPU_CHUNK['mujoco']}, now 1)" in err
 
 
 def test_empty_file_and_unit_messages(tmp_path, capsys):

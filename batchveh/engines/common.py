@@ -9,7 +9,10 @@ from batchveh.batch import VariantBatch
 
 GPU_CHUNK_MAX = 131072  # fused solver: 131k ran 8-11% faster than 65k on one H200 (benchmarks/RESULTS.md)
 GPU_BYTES_PER_VARIANT = 19e3  # measured peak device memory per variant (2.47 GB at 131072)
-CPU_CHUNK = {"mujoco": 1024, "mjx": 256}
+# mujoco: per-chunk costs (Batch setup and reset, the last block's fold, finalize, a Parquet part) are
+# paid once per chunk: 4096 ran 0.81x raw mujoco.batch on 16 cores where 1024 ran 0.73x (median of 4
+# alternated pairs, benchmarks/results/h200-cpu16-overhead.json); on 2 cores 2048 and 1024 tied (0.91x)
+CPU_CHUNK = {"mujoco": 4096, "mjx": 256}
 
 
 def has_gpu() -> bool:

@@ -24,6 +24,10 @@ from batchveh.batch import VariantBatch
 from batchveh.scenarios import Scenario, control_schedule
 from batchveh.vehicle import layout
 
+# Steps per Batch.rollout call. The statistics add each block's sums to the carry, so the block
+# length fixes the order of the float additions: another length changes results in the last bits.
+BLOCK = 100
+TILE = 256  # variants per fold call (see MujocoEngine.run)
 # warnings that mean the simulation's state is no longer valid
 UNSTABLE = [
     int(w)
@@ -31,14 +35,23 @@ UNSTABLE = [
 ]
 
 
+def cpus() -> int:
+    """The CPUs this process may run on (its affinity mask: taskset, cgroups), else all."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
 def default_threads() -> int:
     """MuJoCo threads for the C engine: every CPU but one on machines of 8 or more.
 
-    The fold and control threads need a core: with all 16 cores of a GPU host stepping, a
-    worker that shares its core with them straggles and the whole block waits. Alternated
-    with raw mujoco.batch (benchmarks/cpu_overhead.py, 16 cores): 16 threads 0.90x (median
-    of 4), 15 threads 1.02x. On 2 cores, 1 thread would halve the speed."""
-    n = os.cpu_count() or 1
+    The fold and control threads need about half a core on a 16-core host. Through run_sweep,
+    alternated with raw mujoco.batch at its best (benchmarks/cpu_overhead.py, 16 cores, chunks
+    of 4096, median of 4 pairs, before the tail fold ran on every CPU): 15 threads 0.81x, 16
+    threads 0.80x (benchmarks/results/h200-cpu16-overhead.json). On 2 cores, 1 thread would
+    halve the speed."""
+    n = cpus()
     return n - 1 if n >= 8 else n
 
 
@@ -62,17 +75,20 @@ class MujocoEngine:
     compile_s = 0.0
     compiles = 0
 
-    def __init__(self, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int, nthread: int = 0):
-        self.scenario, self.cfg, self.chunk_size = scenario, cfg, chunk_size
+    def __init__(
+        self, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int, nthread: int = 0, block: int = BLOCK
+    ):
+        self.scenario, self.cfg, self.chunk_size, self.block = scenario, cfg, chunk_size, block
         self.nthread = nthread or default_threads()
         self.warnings: list[str] = []  # MuJoCo's messages, first few of the sweep
         # controls (n, block, nu) for a block of steps of every variant, computed by JAX
         self._ctrl = jax.jit(jax.vmap(control_schedule(scenario), in_axes=(0, None)))
 
-    def run(self, batch: VariantBatch, block: int = 100) -> dict[str, np.ndarray]:
-        """Step the chunk in blocks; while MuJoCo steps block k on all threads, worker threads
+    def run(self, batch: VariantBatch) -> dict[str, np.ndarray]:
+        """Step the chunk in blocks; while MuJoCo steps block k on its threads, two worker threads
         fold block k-1's records into the statistics and compute block k+1's controls (all
-        release the GIL)."""
+        release the GIL while they compute). The last block's fold and the finalize, which no
+        stepping hides, run tile by tile on every CPU."""
         from concurrent.futures import ThreadPoolExecutor
 
         from mujoco.batch import Batch, SimulationError
@@ -83,44 +99,66 @@ class MujocoEngine:
         for name, values in batch.fields.items():
             b.expand(name)[:] = values
         b.reset()
-        params = {k: jnp.asarray(v) for k, v in batch.params.items()}
         radius = np.asarray(batch.params["wheel.radius"], np.float64)[:, None]
         dt = m.opt.timestep
         sizes = {"qpos": m.nq, "qvel": m.nv, "qfrc_actuator": m.nv}
-        starts = list(range(0, self.cfg.n_steps, block))
+        edges = [*range(0, self.cfg.n_steps, self.block), self.cfg.n_steps]
+        longest = int(max(np.diff(edges)))
+        params: dict[str, jax.Array] = {}  # filled by the first controls call, off the main thread
 
-        def controls(start):
-            steps = np.arange(start, min(start + block, self.cfg.n_steps))
-            return steps, np.asarray(self._ctrl(params, jnp.asarray(steps * dt)), np.float64)
+        def controls(k):
+            if not params:
+                params.update({key: jnp.asarray(v) for key, v in batch.params.items()})
+            steps = np.arange(edges[k], edges[k + 1])
+            # times padded to one length (one compiled shape); the schedule is element-wise, so
+            # the padding changes none of the other values
+            t = np.append(steps, np.full(longest - len(steps), steps[-1])) * dt
+            ctrl = np.asarray(self._ctrl(params, jnp.asarray(t)), np.float64)
+            return steps, np.ascontiguousarray(ctrl[:, : len(steps)])
 
-        def fold(acc, rec, steps, ctrls, failed):
-            sample = stats.sample(rec["qpos"], rec["qvel"], rec["qfrc_actuator"], ctrls, radius, lay)
-            if failed.any():
-                sample["tau"] = np.where(failed[:, None, None], np.nan, sample["tau"])
+        def fold(acc, rec, steps, ctrls, failed, tile):
+            part = {r: v[tile] for r, v in rec.items()}
+            sample = stats.sample(part["qpos"], part["qvel"], part["qfrc_actuator"], ctrls[tile], radius[tile], lay)
+            if failed[tile].any():
+                sample["tau"] = np.where(failed[tile, None, None], np.nan, sample["tau"])
             return stats.update(acc, sample, steps, self.cfg)
 
-        acc = stats.init(self.cfg, (batch.n,))
-        bufs = [None, None]
+        def fold_all(accs, *block):
+            return [fold(acc, *block, tile) for acc, tile in zip(accs, tiles, strict=True)]
+
+        # the statistics are kept per tile of TILE variants: a tile's temporaries stay in the CPU's
+        # cache (the fold took 25-45% less CPU in tiles of 256 than on 2048 variants at once), and each
+        # variant's statistics are its own, so tiles give the same bits
+        tiles = [slice(lo, min(lo + TILE, batch.n)) for lo in range(0, batch.n, TILE)]
+        accs = [stats.init(self.cfg, (t.stop - t.start,)) for t in tiles]
+        # two record buffers, used in turn: flat, so that each block's records are a contiguous prefix
+        flat = [{r: np.empty(batch.n * longest * d) for r, d in sizes.items()} for _ in range(2)]
         failed = np.zeros(batch.n, bool)
-        # two workers: one folds block k-1, the other computes block k+1's controls (JAX),
-        # both while MuJoCo steps block k
+        # two workers: one folds block k-1, the other computes block k+1's controls (JAX), both
+        # while MuJoCo steps block k (two fold workers, each with half the tiles, ran no faster
+        # on 2 cores)
         with ThreadPoolExecutor(2) as pool, captured_warnings() as messages:
             pending = None
-            next_ctrls = pool.submit(controls, starts[0])
-            for k in range(len(starts)):
+            next_ctrls = pool.submit(controls, 0)
+            for k in range(len(edges) - 1):
                 steps, ctrls = next_ctrls.result()
-                if k + 1 < len(starts):
-                    next_ctrls = pool.submit(controls, starts[k + 1])
-                if bufs[k % 2] is None or bufs[k % 2]["qpos"].shape[1] != len(steps):
-                    bufs[k % 2] = {r: np.empty((batch.n, len(steps), n)) for r, n in sizes.items()}
+                if k + 2 < len(edges):
+                    next_ctrls = pool.submit(controls, k + 1)
+                out = {
+                    r: f[: batch.n * len(steps) * sizes[r]].reshape(batch.n, len(steps), -1)
+                    for r, f in flat[k % 2].items()
+                }
                 try:
-                    rec = b.rollout(len(steps), control=ctrls, record=tuple(sizes), out=bufs[k % 2])
+                    rec = b.rollout(len(steps), control=ctrls, record=tuple(sizes), out=out)
                 except SimulationError:
-                    rec = bufs[k % 2]  # failed simulations are marked below; their records repeat
+                    rec = out  # failed simulations are marked below; their records repeat
                 failed = failed | (np.asarray(b.status) != 0) | (b.warning[:, UNSTABLE, 1].sum(-1) > 0)
                 if pending is not None:
-                    acc = pending.result()
-                pending = pool.submit(fold, acc, rec, steps, ctrls, failed.copy())
-            acc = pending.result()
+                    accs = pending.result()
+                if k + 2 < len(edges):
+                    pending = pool.submit(fold_all, accs, rec, steps, ctrls, failed.copy())
         self.warnings.extend(messages[: max(0, 5 - len(self.warnings))])
-        return stats.finalize(acc, self.cfg)
+        with ThreadPoolExecutor(min(cpus(), len(tiles))) as tail:  # every CPU is free now
+            accs = list(tail.map(lambda acc, tile: fold(acc, rec, steps, ctrls, failed, tile), accs, tiles))
+            cols = list(tail.map(lambda acc: stats.finalize(acc, self.cfg), accs))
+        return {k: np.concatenate([c[k] for c in cols]) for k in cols[0]}
