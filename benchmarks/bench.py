@@ -49,6 +49,7 @@ SOLVERS = {  # name -> (solver, iterations, ls_iterations)
 
 
 WHEEL_COLLISION = "cylinder"  # --wheel-collision
+CONTACT = None  # --contact CONE/IMPRATIO, e.g. pyramidal/1 (default: the vehicle's own)
 
 
 def slope_table(n: int, seed: int = 0):
@@ -59,7 +60,12 @@ def slope_table(n: int, seed: int = 0):
 
     spec = load_spec(Path(__file__).resolve().parent.parent / "sweeps" / "slope.yaml")
     wheel = dataclasses.replace(spec.vehicle.wheel, collision=WHEEL_COLLISION)
-    spec = dataclasses.replace(spec, vehicle=dataclasses.replace(spec.vehicle, wheel=wheel))
+    vehicle = dataclasses.replace(spec.vehicle, wheel=wheel)
+    if CONTACT:
+        cone, impratio = CONTACT.split("/")
+        cm = dataclasses.replace(vehicle.contact_model, cone=cone, impratio=float(impratio))
+        vehicle = dataclasses.replace(vehicle, contact_model=cm)
+    spec = dataclasses.replace(spec, vehicle=vehicle)
     grid = variant_table(spec)
     idx = np.random.default_rng(seed).choice(len(grid), size=n, replace=n > len(grid))
     return spec, grid.iloc[idx].drop(columns="variant").reset_index(drop=True)
@@ -341,9 +347,11 @@ def main():
         help="JAX matmul precisions to compare for mjx (GPU float32 'default' may use TF32)",
     )
     ap.add_argument("--wheel-collision", default="cylinder", choices=["cylinder", "sphere"])
+    ap.add_argument("--contact", default=None, help="CONE/IMPRATIO, e.g. pyramidal/1 (default: the vehicle's)")
     args = ap.parse_args()
-    global WHEEL_COLLISION
+    global WHEEL_COLLISION, CONTACT
     WHEEL_COLLISION = args.wheel_collision
+    CONTACT = args.contact
     import jax
     import mujoco
 
@@ -366,6 +374,7 @@ def main():
         "steps": n_steps,
         "time_step": spec.scenario.time_step,
         "wheel_collision": args.wheel_collision,
+        "contact": args.contact or "vehicle default (elliptic/10)",
     }
 
     # the converged reference on a fixed sample

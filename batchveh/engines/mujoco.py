@@ -21,6 +21,7 @@ import numpy as np
 
 from batchveh import stats
 from batchveh.batch import VariantBatch
+from batchveh.rollout import float_precision
 from batchveh.scenarios import Scenario, control_schedule
 from batchveh.vehicle import layout
 
@@ -107,13 +108,15 @@ class MujocoEngine:
         params: dict[str, jax.Array] = {}  # filled by the first controls call, off the main thread
 
         def controls(k):
-            if not params:
-                params.update({key: jnp.asarray(v) for key, v in batch.params.items()})
-            steps = np.arange(edges[k], edges[k + 1])
-            # times padded to one length (one compiled shape); the schedule is element-wise, so
-            # the padding changes none of the other values
-            t = np.append(steps, np.full(longest - len(steps), steps[-1])) * dt
-            ctrl = np.asarray(self._ctrl(params, jnp.asarray(t)), np.float64)
+            # float64, as MuJoCo C steps (the x64 scope is per thread: this worker's own)
+            with float_precision("f64"):
+                if not params:
+                    params.update({key: jnp.asarray(v, jnp.float64) for key, v in batch.params.items()})
+                steps = np.arange(edges[k], edges[k + 1])
+                # times padded to one length (one compiled shape); the schedule is element-wise, so
+                # the padding changes none of the other values
+                t = np.append(steps, np.full(longest - len(steps), steps[-1])) * dt
+                ctrl = np.asarray(self._ctrl(params, jnp.asarray(t, jnp.float64)), np.float64)
             return steps, np.ascontiguousarray(ctrl[:, : len(steps)])
 
         def fold(acc, rec, steps, ctrls, failed, tile):
