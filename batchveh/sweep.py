@@ -34,8 +34,9 @@ EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_INTERRUPTED = 0, 2, 3, 130
 TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match it
 
 # Rough rates in variant-steps/s for the dry run's estimate, measured (benchmarks/RESULTS.md):
-# MuJoCo C 1.6e5 on 2 threads; MJX on the CPU 1.0e4 on 2 cores; MJX on one H200 8.5e6 (cylinder wheels)
-RATE_MUJOCO_PER_THREAD = 8.0e4
+# MuJoCo C 9.4e4 on 2 threads with the default elliptic contact (the main job); MJX on the CPU
+# 1.0e4 on 2 cores; MJX on one H200 8.5e6 (cylinder wheels, fused solver, pyramidal contact)
+RATE_MUJOCO_PER_THREAD = 4.7e4
 RATE_MJX_CPU_PER_CORE = 5.0e3
 RATE_MJX_PER_GPU = 8.0e6
 COMPILE_S = {"mujoco": 2.0, "mjx-cpu": 60.0, "mjx-gpu": 15.0}
