@@ -72,6 +72,14 @@ def _gains(m: mujoco.MjModel, p: Mapping[str, Any], towing) -> tuple[np.ndarray,
     return gain, bias
 
 
+def servo_damping(p: Mapping[str, Any], towing, xp=np):
+    """kv of each motor's servo, (..., 8) in MOTORS order, N m s/rad (0 on a towing wheel)."""
+    free = np.array([0.0 if tow else 1.0 for tow in towing])
+    drive = xp.asarray(p["motors.drive_kv"])[..., None] * free
+    steer = xp.asarray(p["motors.steer_kv"])[..., None] * xp.ones(4)
+    return xp.concatenate([drive, steer], axis=-1)
+
+
 def apply_solver(m: mujoco.MjModel, solver: Any) -> None:
     """Set MuJoCo solver options on `m` from `solver` (attributes or keys type, iterations,
     ls_iterations, tolerance; None or absent keeps MuJoCo's)."""

@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 
 from batchveh import stats
-from batchveh.batch import import_mjx
+from batchveh.batch import import_mjx, servo_damping
 from batchveh.scenarios import Scenario, control_schedule, controls_fn
 from batchveh.vehicle import Layout, layout
 
@@ -44,11 +44,14 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
     ctrl_fn = controls_fn(scenario)
     dt = model.opt.timestep
 
+    damping = servo_damping(params, scenario.towing, xp=jnp)
+
     def body(carry, i):
         d, acc = carry
         ctrl = ctrl_fn(params, i * dt).astype(d.ctrl.dtype)
+        qvel_prev = d.qvel
         d = mjx.step(model, d.replace(ctrl=ctrl))
-        s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, params["wheel.radius"], lay)
+        s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, params["wheel.radius"], lay, qvel_prev, damping)
         return body_out(d, acc, s, i)
 
     return body
@@ -108,11 +111,13 @@ def mujoco_series(
     """Per-step samples from MuJoCo C (float64), the reference for MJX."""
     lay = layout(m)
     radius = float(params["wheel.radius"])
-    rows = [
-        stats.sample(d.qpos.copy(), d.qvel.copy(), d.qfrc_actuator.copy(), ctrl, radius, lay)
-        for d, ctrl in mujoco_steps(m, params, scenario=scenario, n_steps=n_steps)
-        if ctrl is not None
-    ]
+    damping = servo_damping({k: float(v) for k, v in params.items()}, scenario.towing)
+    rows, prev = [], None
+    for d, ctrl in mujoco_steps(m, params, scenario=scenario, n_steps=n_steps):
+        if ctrl is not None:
+            state = d.qpos.copy(), d.qvel.copy(), d.qfrc_actuator.copy()
+            rows.append(stats.sample(*state, ctrl, radius, lay, prev, damping))
+        prev = d.qvel.copy()
     return {k: np.stack([r[k] for r in rows]) for k in rows[0]}
 
 

@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 
 from batchveh import stats
-from batchveh.batch import VariantBatch
+from batchveh.batch import VariantBatch, servo_damping
 from batchveh.rollout import float_precision
 from batchveh.scenarios import Scenario, control_schedule
 from batchveh.vehicle import layout
@@ -101,6 +101,8 @@ class MujocoEngine:
             b.expand(name)[:] = values
         b.reset()
         radius = np.asarray(batch.params["wheel.radius"], np.float64)[:, None]
+        damping = servo_damping(batch.params, self.scenario.towing)[:, None, :]  # (n, 1, 8)
+        first = np.array(b.qvel)  # qvel before each block's first step: after reset, then each block's last
         dt = m.opt.timestep
         sizes = {"qpos": m.nq, "qvel": m.nv, "qfrc_actuator": m.nv}
         edges = [*range(0, self.cfg.n_steps, self.block), self.cfg.n_steps]
@@ -119,9 +121,12 @@ class MujocoEngine:
                 ctrl = np.asarray(self._ctrl(params, jnp.asarray(t, jnp.float64)), np.float64)
             return steps, np.ascontiguousarray(ctrl[:, : len(steps)])
 
-        def fold(acc, rec, steps, ctrls, failed, tile):
+        def fold(acc, rec, steps, ctrls, failed, first, tile):
             part = {r: v[tile] for r, v in rec.items()}
-            sample = stats.sample(part["qpos"], part["qvel"], part["qfrc_actuator"], ctrls[tile], radius[tile], lay)
+            prev = np.concatenate([first[tile, None], part["qvel"][:, :-1]], axis=1)  # qvel before each step
+            sample = stats.sample(
+                part["qpos"], part["qvel"], part["qfrc_actuator"], ctrls[tile], radius[tile], lay, prev, damping[tile]
+            )
             if failed[tile].any():
                 sample["tau"] = np.where(failed[tile, None, None], np.nan, sample["tau"])
             return stats.update(acc, sample, steps, self.cfg)
@@ -159,9 +164,10 @@ class MujocoEngine:
                 if pending is not None:
                     accs = pending.result()
                 if k + 2 < len(edges):
-                    pending = pool.submit(fold_all, accs, rec, steps, ctrls, failed.copy())
+                    pending = pool.submit(fold_all, accs, rec, steps, ctrls, failed.copy(), first)
+                    first = rec["qvel"][:, -1].copy()
         self.warnings.extend(messages[: max(0, 5 - len(self.warnings))])
         with ThreadPoolExecutor(min(cpus(), len(tiles))) as tail:  # every CPU is free now
-            accs = list(tail.map(lambda acc, tile: fold(acc, rec, steps, ctrls, failed, tile), accs, tiles))
+            accs = list(tail.map(lambda acc, tile: fold(acc, rec, steps, ctrls, failed, first, tile), accs, tiles))
             cols = list(tail.map(lambda acc: stats.finalize(acc, self.cfg), accs))
         return {k: np.concatenate([c[k] for c in cols]) for k in cols[0]}
