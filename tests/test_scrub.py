@@ -64,7 +64,7 @@ DRIVE_SMALL = 0.1  # rolling-form drive torque / mu N r: measured 0.056
 # on a smooth run; measured 4.9e-4 N m per step, 6.2e-6 N m on the window means (at impratio 100)
 MJX_STEP_ATOL = 2e-3  # N m
 MJX_MEAN_ATOL = 3e-5  # N m
-MJX_ROLLING_STEP_ATOL = 2e-10  # N m, rolling form (slow): measured 4.7e-11
+MJX_ROLLING_STEP_ATOL = 2e-7  # N m, rolling form (slow): measured 6.8e-8 (4.7e-11 at impratio 100 on qfrc_actuator)
 
 
 def _scenario(kind, **kw):
