@@ -51,7 +51,8 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
         ctrl = ctrl_fn(params, i * dt).astype(d.ctrl.dtype)
         qvel_prev = d.qvel
         d = mjx.step(model, d.replace(ctrl=ctrl))
-        s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, params["wheel.radius"], lay, qvel_prev, damping)
+        dv = (d.qvel - qvel_prev)[lay.motor_dof]
+        s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, params["wheel.radius"], lay, damping, dv)
         return body_out(d, acc, s, i)
 
     return body
@@ -116,7 +117,8 @@ def mujoco_series(
     for d, ctrl in mujoco_steps(m, params, scenario=scenario, n_steps=n_steps):
         if ctrl is not None:
             state = d.qpos.copy(), d.qvel.copy(), d.qfrc_actuator.copy()
-            rows.append(stats.sample(*state, ctrl, radius, lay, prev, damping))
+            dv = (d.qvel - prev)[lay.motor_dof]
+            rows.append(stats.sample(*state, ctrl, radius, lay, damping, dv))
         prev = d.qvel.copy()
     return {k: np.stack([r[k] for r in rows]) for k in rows[0]}
 

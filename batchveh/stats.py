@@ -96,7 +96,7 @@ class StatsConfig:
         return max(1, math.ceil(self.window_steps / self.stride))
 
 
-def sample(qpos, qvel, qfrc_actuator, ctrl, wheel_radius, lay, qvel_prev=None, damping=None) -> dict[str, Any]:
+def sample(qpos, qvel, qfrc_actuator, ctrl, wheel_radius, lay, damping=None, motor_dv=None) -> dict[str, Any]:
     """The quantities `update` folds, read from MuJoCo state arrays of any leading shape.
 
     qpos, qvel, qfrc_actuator: (..., nq / nv) after a step; ctrl: (..., nu); wheel_radius: the
@@ -104,14 +104,15 @@ def sample(qpos, qvel, qfrc_actuator, ctrl, wheel_radius, lay, qvel_prev=None, d
 
     The motor torque is the torque the step applied. `implicitfast` integrates each servo's
     damping kv at the end-of-step speed, while `qfrc_actuator` holds it at the start-of-step
-    speed, so with `qvel_prev` (before the step) and `damping` (..., 8) (kv per motor, N m s/rad)
-    the applied torque is qfrc_actuator - kv (qvel - qvel_prev): 3.6 N m less per wheel at 5 ms
-    on a 1 s ramp to 1 km/h (validation/PEAKS.md). Without them, qfrc_actuator as it is.
+    speed, so with `damping` (..., 8) (kv per motor, N m s/rad) and `motor_dv` (..., 8) (each
+    motor joint's speed change over the step, rad/s) the applied torque is qfrc_actuator -
+    kv dv: 3.6 N m less per wheel at 5 ms on a 1 s ramp to 1 km/h (validation/PEAKS.md).
+    Without them, qfrc_actuator as it is.
     """
     omega = qvel[..., lay.motor_dof[:4]]
     tau = qfrc_actuator[..., lay.motor_dof]
     if damping is not None:
-        tau = tau - damping * (qvel[..., lay.motor_dof] - qvel_prev[..., lay.motor_dof])
+        tau = tau - damping * motor_dv
     return {
         "tau": tau,
         "omega": omega,

@@ -102,7 +102,8 @@ class MujocoEngine:
         b.reset()
         radius = np.asarray(batch.params["wheel.radius"], np.float64)[:, None]
         damping = servo_damping(batch.params, self.scenario.towing)[:, None, :]  # (n, 1, 8)
-        first = np.array(b.qvel)  # qvel before each block's first step: after reset, then each block's last
+        # motor joint speeds before each block's first step: after reset, then each block's last
+        first = np.array(b.qvel)[:, lay.motor_dof]
         dt = m.opt.timestep
         sizes = {"qpos": m.nq, "qvel": m.nv, "qfrc_actuator": m.nv}
         edges = [*range(0, self.cfg.n_steps, self.block), self.cfg.n_steps]
@@ -123,9 +124,9 @@ class MujocoEngine:
 
         def fold(acc, rec, steps, ctrls, failed, first, tile):
             part = {r: v[tile] for r, v in rec.items()}
-            prev = np.concatenate([first[tile, None], part["qvel"][:, :-1]], axis=1)  # qvel before each step
+            dv = np.diff(part["qvel"][..., lay.motor_dof], axis=1, prepend=first[tile, None])  # speed change per step
             sample = stats.sample(
-                part["qpos"], part["qvel"], part["qfrc_actuator"], ctrls[tile], radius[tile], lay, prev, damping[tile]
+                part["qpos"], part["qvel"], part["qfrc_actuator"], ctrls[tile], radius[tile], lay, damping[tile], dv
             )
             if failed[tile].any():
                 sample["tau"] = np.where(failed[tile, None, None], np.nan, sample["tau"])
@@ -165,7 +166,7 @@ class MujocoEngine:
                     accs = pending.result()
                 if k + 2 < len(edges):
                     pending = pool.submit(fold_all, accs, rec, steps, ctrls, failed.copy(), first)
-                    first = rec["qvel"][:, -1].copy()
+                    first = rec["qvel"][:, -1, lay.motor_dof]  # fancy indexing: a copy
         self.warnings.extend(messages[: max(0, 5 - len(self.warnings))])
         with ThreadPoolExecutor(min(cpus(), len(tiles))) as tail:  # every CPU is free now
             accs = list(tail.map(lambda acc, tile: fold(acc, rec, steps, ctrls, failed, first, tile), accs, tiles))
