@@ -235,9 +235,9 @@ def _structural_fields(vehicle, scenario, model, params, names, fields) -> None:
     for name in SAMEFRAME:
         base[name][:] = 0  # fast-path flags: off for everyone
     for name in base:
-        values = np.stack([m[name] for m in models])
         if name in SAMEFRAME or name in ("actuator_gainprm", "actuator_biasprm"):
             continue
+        values = np.stack([m[name] for m in models])
         if name in varying or not np.array_equal(values, np.broadcast_to(base[name], values.shape)):
             fields[name] = values[index.ravel()]
 

@@ -59,7 +59,11 @@ _STAT_DOC = {
 }
 _OTHER_DOC = {
     "variant": ("", "variant id"),
-    "status": ("", "ok, diverged (NaN or inf) or flipped (roll or pitch > 60 deg)"),
+    "status": (
+        "",
+        "ok, diverged (NaN, inf or a huge state, or MuJoCo found the simulation unstable) or flipped "
+        "(roll or pitch > 60 deg)",
+    ),
     "distance": ("m", "path length of the chassis centre in the ground plane"),
     "mean_speed": ("m/s", "mean forward chassis speed over the steady window"),
     "wheel_speed": ("rad/s", "mean wheel angular speed (four wheels) over the steady window"),
@@ -98,9 +102,11 @@ def _sha256(path: Path) -> str:
     return h.hexdigest()
 
 
-def _write_atomic(path: Path, data: bytes) -> None:
+def _write_atomic(path: Path, write) -> None:
+    """Call write(tmp) on a temporary name beside `path`, then rename it to `path`: a kill leaves
+    the old file or the new one, never half of one."""
     tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_bytes(data)
+    write(tmp)
     os.replace(tmp, path)
 
 
@@ -122,9 +128,7 @@ def part_table(frame: pd.DataFrame, param_units: dict[str, str], meta: dict[str,
 
 def write_table(table: pa.Table, path: Path) -> None:
     """Write `table` to `path` atomically (temporary name, then rename)."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    pq.write_table(table, tmp)
-    os.replace(tmp, path)
+    _write_atomic(path, lambda tmp: pq.write_table(table, tmp))
 
 
 class ResultFolder:
@@ -233,7 +237,8 @@ class ResultFolder:
         return done, bad
 
     def _save(self) -> None:
-        _write_atomic(self.path / MANIFEST, json.dumps(self.manifest, indent=1, default=str).encode())
+        text = json.dumps(self.manifest, indent=1, default=str)
+        _write_atomic(self.path / MANIFEST, lambda tmp: tmp.write_text(text))
 
     def write_part(self, chunk: int, table: pa.Table) -> None:
         """Write chunk's table atomically, then record its size and checksum in the manifest."""
@@ -272,18 +277,18 @@ def parts(out: str | Path) -> list[Path]:
     return ResultFolder(out).parts()
 
 
-def load(path: str | Path, columns: list[str] | None = None) -> pd.DataFrame:
+def load(path: str | Path, columns: list[str] | None = None, verify: bool = True) -> pd.DataFrame:
     """All rows of a sweep result folder (or one Parquet file) as a DataFrame, by variant.
 
-    Every part is checked against the manifest first; a bad one raises ResultError naming
-    it and what to do. `columns`: read only these (and `variant`)."""
+    Every part is checked against the manifest first (`verify`); a bad one raises ResultError
+    naming it and what to do. `columns`: read only these (and `variant`)."""
     path = Path(path)
     if path.is_dir():
         folder = ResultFolder(path)
         files = folder.parts()
         if not files:
             raise ResultError(f"{path}: no part-*.parquet files (not a sweep result, or nothing finished yet)")
-        if "parts" in (folder.read_manifest() or {}):  # older results recorded no checksums
+        if verify and "parts" in (folder.read_manifest() or {}):  # older results recorded no checksums
             _, bad = folder.verify()
             if bad:
                 name, why = next(iter(bad.items()))
