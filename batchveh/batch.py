@@ -249,19 +249,44 @@ def import_mjx():
     return mjx
 
 
-def mjx_model(batch: VariantBatch) -> tuple[Any, Any]:
-    """The MJX model with batched fields, and its `in_axes` tree (0 where a field varies)."""
+# Fields a structural sweep changes that MuJoCo Warp never reads for this vehicle: the mass matrix
+# diagonal at qpos0 (nothing in mujoco_warp reads dof_M0), the dofs' lengths (read only by sleeping,
+# which is off) and the mesh bounding volumes (the vehicle has no mesh). They stay at the base values.
+WARP_UNREAD = ("dof_M0", "dof_length", "bvh_aabb")
+
+
+def mjx_model(batch: VariantBatch, impl: str = "jax") -> tuple[Any, Any]:
+    """The MJX model with batched fields, and its `in_axes` tree (0 where a field varies).
+
+    impl: 'jax' (MJX's JAX implementation) or 'warp' (MuJoCo Warp inside MJX, float32). The Warp
+    model keeps some fields in its own shapes (geom_aabb as (ngeom, 2, 3)): a batched field is
+    reshaped to the model's. Its overflow and iteration-limit messages are switched off: the
+    engine reports them per variant instead (`rollout.solver_at_limit`)."""
     import jax
     import jax.numpy as jnp
 
     mjx = import_mjx()
-    m = mjx.put_model(batch.model)
+    m = mjx.put_model(batch.model, impl=impl)
+    if impl == "warp":
+        m = m.replace(opt=m.opt.replace(_impl=m.opt._impl.replace(warn_overflow=0)))
     axes = jax.tree_util.tree_map(lambda _: None, m)
+    public = {f.name for f in type(m).fields()}
     opt, opt_axes = {}, {}
     top, top_axes = {}, {}
     for name, values in batch.fields.items():
         if name.startswith("opt."):
             opt[name[4:]], opt_axes[name[4:]] = jnp.asarray(values), 0
+            continue
+        if impl == "warp":
+            if name in WARP_UNREAD or name in SAMEFRAME:
+                continue
+            current = getattr(m, name, None) if name in public else None
+            if current is None or current.size * batch.n != values.size:
+                raise ConfigError(
+                    f"model field {name} cannot vary per variant in MJX's Warp implementation, so the parameters "
+                    "that change it cannot vary on the warp backend; allowed: the mujoco backend, or fixed values"
+                )
+            top[name], top_axes[name] = jnp.asarray(values.reshape(batch.n, *current.shape), current.dtype), 0
             continue
         if isinstance(getattr(m, name, None), np.ndarray):
             raise ConfigError(

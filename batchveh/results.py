@@ -51,11 +51,11 @@ _STAT_DOC = {
     "max": ("N m", "maximum torque over the steady window"),
     "peak": ("N m", "peak |torque| over the steady window"),
     "p95": ("N m", "95th percentile of |torque| over the steady window (strided samples)"),
-    "peak_all": ("N m", "peak |torque| over the whole run"),
+    "peak_all": ("N m", "peak |torque| over the whole run after the settle"),
     "peak_lp": ("N m", "peak |low-pass filtered torque| over the steady window"),
-    "peak_lp_all": ("N m", "peak |low-pass filtered torque| over the whole run"),
-    "energy": ("J", "mechanical energy delivered, integral of torque x speed, whole run"),
-    "power_peak": ("W", "peak |torque x speed| over the whole run"),
+    "peak_lp_all": ("N m", "peak |low-pass filtered torque| over the whole run after the settle"),
+    "energy": ("J", "mechanical energy delivered, integral of torque x speed, whole run after the settle"),
+    "power_peak": ("W", "peak |torque x speed| over the whole run after the settle"),
 }
 _OTHER_DOC = {
     "variant": ("", "variant id"),
@@ -64,7 +64,7 @@ _OTHER_DOC = {
         "ok, diverged (NaN, inf or a huge state, or MuJoCo found the simulation unstable) or flipped "
         "(roll or pitch > 60 deg)",
     ),
-    "distance": ("m", "path length of the chassis centre in the ground plane"),
+    "distance": ("m", "path length of the chassis centre in the ground plane after the settle"),
     "mean_speed": ("m/s", "mean forward chassis speed over the steady window"),
     "wheel_speed": ("rad/s", "mean wheel angular speed (four wheels) over the steady window"),
     "slip_ratio": ("1", "1 - forward speed / mean rim speed over the steady window"),
@@ -73,11 +73,16 @@ _OTHER_DOC = {
     "steady": ("", "|window_accel| < 0.05 m/s^2: the window is steady (torques exclude acceleration)"),
     "speed_track_err": ("1", "steady mean wheel-speed error relative to the imposed speed (max over wheels)"),
     "steer_track_err_deg": ("deg", "max steering-angle error over the steady window"),
-    "max_roll_deg": ("deg", "max |roll| over the run"),
-    "max_pitch_deg": ("deg", "max |pitch| over the run"),
+    "max_roll_deg": ("deg", "max |roll| over the run after the settle"),
+    "max_pitch_deg": ("deg", "max |pitch| over the run after the settle"),
     "final_x": ("m", "final chassis x"),
     "final_y": ("m", "final chassis y"),
     "final_yaw_deg": ("deg", "final chassis yaw"),
+    "solver_limit_share": (
+        "1",
+        "share of steps whose constraint solve stopped on opt.iterations, not on the tolerance "
+        "(mujoco and warp backends; MJX's JAX solver does not count its iterations)",
+    ),
 }
 
 

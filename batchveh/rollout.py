@@ -58,32 +58,70 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
     return body
 
 
-def mjx_stats(
-    model: mjx.Model, params: Mapping[str, Any], *, scenario: Scenario, cfg: stats.StatsConfig, lay: Layout
-) -> dict[str, jax.Array]:
-    """Statistics columns of one variant (pure; vmap it over a batched model)."""
-    dtype = model.opt.timestep.dtype
+def reports_solver_iterations(model: mjx.Model) -> bool:
+    """Whether the implementation records its solver's iteration count: MuJoCo Warp does (per
+    world, `solver_niter`); MJX's JAX solver leaves the field at 0."""
+    return model.impl == mjx.Impl.WARP
 
-    def out(d, acc, s, i):
+
+def solver_at_limit(model: mjx.Model, d: mjx.Data) -> jax.Array:
+    """Whether the step's constraint solve used every one of `opt.iterations`, so that it stopped
+    on the limit rather than on the tolerance (MuJoCo Warp: the implementation's own data part)."""
+    return d._impl.solver_niter >= model.opt.iterations
+
+
+def mjx_stats(
+    model: mjx.Model,
+    params: Mapping[str, Any],
+    *,
+    scenario: Scenario,
+    cfg: stats.StatsConfig,
+    lay: Layout,
+    data: mjx.Data | None = None,
+) -> dict[str, jax.Array]:
+    """Statistics columns of one variant (pure; vmap it over a batched model), and, where the
+    implementation reports it, `solver_limit_share`: the share of steps whose solve ran out of
+    iterations.
+
+    data: the initial data (MJX's Warp implementation makes it from the MjModel); default
+    `mjx.make_data(model)`."""
+    dtype = model.opt.timestep.dtype
+    health = reports_solver_iterations(model)
+
+    def out(d, carry, s, i):
+        acc, at_limit = carry
         block = {k: v[None] for k, v in s.items()}  # a block of one step: time axis -2
-        return (d, stats.update(acc, block, i[None], cfg, xp=jnp)), None
+        if health:
+            at_limit = at_limit + solver_at_limit(model, d).astype(jnp.int32)
+        return (d, (stats.update(acc, block, i[None], cfg, xp=jnp), at_limit)), None
 
     body = _scan(model, params, scenario, lay, out)
-    init = (mjx.make_data(model), stats.init(cfg, (), xp=jnp, dtype=dtype))
-    (_, acc), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps))
-    return stats.finalize(acc, cfg, xp=jnp)
+    d0 = mjx.make_data(model) if data is None else data
+    init = (d0, (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
+    (_, (acc, at_limit)), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps))
+    cols = stats.finalize(acc, cfg, xp=jnp)
+    if health:
+        cols["solver_limit_share"] = at_limit.astype(dtype) / cfg.n_steps
+    return cols
 
 
 def mjx_series(
-    model: mjx.Model, params: Mapping[str, Any], *, scenario: Scenario, n_steps: int, lay: Layout
+    model: mjx.Model,
+    params: Mapping[str, Any],
+    *,
+    scenario: Scenario,
+    n_steps: int,
+    lay: Layout,
+    data: mjx.Data | None = None,
 ) -> dict[str, jax.Array]:
-    """Per-step samples of one variant, each (n_steps, ...)."""
+    """Per-step samples of one variant, each (n_steps, ...); `data` as in `mjx_stats`."""
 
     def out(d, acc, s, i):
         return (d, acc), s
 
     body = _scan(model, params, scenario, lay, out)
-    _, series = jax.lax.scan(body, (mjx.make_data(model), ()), jnp.arange(n_steps))
+    d0 = mjx.make_data(model) if data is None else data
+    _, series = jax.lax.scan(body, (d0, ()), jnp.arange(n_steps))
     return series
 
 

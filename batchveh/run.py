@@ -87,8 +87,9 @@ def simulate(
     precision: str = "f32",
 ) -> RunResult:
     """Run one scenario on MuJoCo C ('mujoco', float64) or MJX ('mjx', `precision` f32 or f64);
-    record every step."""
-    cfg = stats.StatsConfig.make(scenario.time_step, scenario.n_steps, window)
+    record every step after the settle (the series' time is law time: its first sample is at
+    t = time_step, the state after the first step of the laws; `window` is in law time too)."""
+    cfg = stats.StatsConfig.for_scenario(scenario, window)
     batch = make_batch(vehicle, scenario, {})
     params = {k: float(v[0]) for k, v in batch.params.items()}
     n = scenario.n_steps
@@ -113,8 +114,9 @@ def simulate(
         raise ConfigError(f"--backend: {backend!r} is not allowed; allowed: mujoco, mjx")
     from batchveh.rollout import series_stats
 
-    frame = series_frame(series, scenario.time_step)
-    return RunResult(frame, series_stats(series, cfg), scenario, vehicle)
+    st = series_stats(series, cfg)  # over every step: the reduction leaves the settle out itself
+    frame = series_frame({k: v[cfg.settle_steps :] for k, v in series.items()}, scenario.time_step)
+    return RunResult(frame, st, scenario, vehicle)
 
 
 def write(result: RunResult, out: Path, overwrite: bool = False) -> list[Path]:

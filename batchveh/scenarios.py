@@ -6,11 +6,21 @@ numbers, given as a flat mapping of (possibly batched) arrays, and time t in s t
 the imposed wheel speeds omega (4,) in rad/s and steering angles alpha (4,) in
 rad, corner order lf, rf, lr, rr. The controls are pure JAX, so a sweep varies
 any of those numbers inside one compiled program.
+
+Time. A run first settles for `settle_time` s (default 0.5), then the laws run for
+`total_time` s. During the settle every law is held at its value at law time 0 (steering
+rates 0): the vehicle, created just touching the ground, sinks onto its contacts and the
+motors take up the load before anything moves (validation/PEAKS.md, fix B). Law time t = 0
+is the end of the settle: `total_time`, `ramp_time`, law parameters and the statistics
+window all count from there. The engines step `n_steps` = settle_steps + total_time / dt
+steps from engine time 0; `controls_fn` maps engine time to law time, and `stats` leaves the
+settle steps out of every statistic (the recorded series of `batchveh.run` start after it).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,12 +49,20 @@ class Scenario:
     gravity: float = field(9.81, unit="m/s^2", gt=0, doc="gravity magnitude (earth 9.81, moon 1.62, mars 3.71)")
     total_time: float = field(10.0, unit="s", gt=0, le=86400, doc="simulated time (at most a day)")
     time_step: float = field(0.005, unit="s", ge=1e-5, le=0.05)
+    settle_time: float = field(
+        0.5,
+        unit="s",
+        ge=0,
+        le=86400,
+        doc="settle before the laws start, laws held at their t = 0 values; left out of every statistic",
+        sweep=False,
+    )
     speed_kmh: float = field(1.0, unit="km/h", doc="target forward speed at the wheel rim")
-    ramp_time: float = field(3.0, unit="s", ge=0, doc="time to reach the target speed or angle")
+    ramp_time: float = field(3.0, unit="s", ge=0, doc="time to reach the target speed or angle")  # see _drive
     steer_deg: float = field(45.0, unit="deg", ge=-90, le=90, doc="steering angle (steer_in_place, crab)")
     turn_radius: float = field(3.0, unit="m", doc="Ackermann turn radius; >0 turns left")
     yaw_rate_dps: float = field(20.0, unit="deg/s", doc="pivot yaw rate; >0 counter-clockwise")
-    drive_law: str = "ramp"
+    drive_law: str = "smooth_step"  # steer_in_place keeps the seed's ramp (SCENARIOS)
     towing: tuple[bool, bool, bool, bool] = (False, False, False, False)
     laws: dict | None = None
 
@@ -59,11 +77,19 @@ class Scenario:
             custom_laws(self, where)
         if self.time_step > self.total_time:
             raise ConfigError(f"{where}.time_step: {self.time_step!r} exceeds total_time {self.total_time!r}")
+        st = self.settle_time
+        if isinstance(st, bool) or not isinstance(st, (int, float)) or not (math.isfinite(st) and 0 <= st <= 86400):
+            raise ConfigError(f"{where}.settle_time: {st!r} is not allowed; allowed: >= 0 and <= 86400 s")
+
+    @property
+    def settle_steps(self) -> int:
+        """Physics steps of the settle before law time 0 (settle_time rounded to whole steps)."""
+        return int(round(self.settle_time / self.time_step))
 
     @property
     def n_steps(self) -> int:
-        """Number of physics steps."""
-        return int(round(self.total_time / self.time_step))
+        """Number of physics steps: the settle's, then total_time's."""
+        return self.settle_steps + int(round(self.total_time / self.time_step))
 
     def gravity_vector(self) -> np.ndarray:
         """(3,) gravity in m/s^2 tilted by the slope: (-g sin s, 0, -g cos s)."""
@@ -77,8 +103,9 @@ def gravity_vector(g, slope_deg, xp=jnp):
 
 
 def numeric_fields() -> dict[str, dict[str, Any]]:
-    """The sweepable float fields of Scenario, with unit and bounds."""
-    return {f.name: dict(f.metadata) for f in dataclasses.fields(Scenario) if f.metadata}
+    """The sweepable float fields of Scenario, with unit and bounds (`settle_time` is not one:
+    it fixes the step count, and it is no per-variant knob; set it in the scenario)."""
+    return {f.name: dict(f.metadata) for f in dataclasses.fields(Scenario) if f.metadata and f.metadata["sweep"]}
 
 
 # --- controls ------------------------------------------------------------------
@@ -91,6 +118,11 @@ def _omega(p):
 
 
 def _drive(sc: Scenario, target, p, t):
+    """The drive law `sc.drive_law` from 0 to `target` over ramp_time. The default, smooth_step,
+    reaches the target in the same ramp_time as the seed's ramp, with zero acceleration at both
+    ends, so the start and the end of the ramp excite no under-resolved servo mode and the
+    peaks converge in dt (validation/PEAKS.md); its peak acceleration is 15/8 of the ramp's
+    (set ramp_time 1.875x longer for the ramp's peak acceleration)."""
     law = laws.LAWS[sc.drive_law]
     return law(t, 0.0 * target, target, p["ramp_time"])
 
@@ -142,7 +174,7 @@ def steer_in_place_rolling(sc, p, t):
     duration = jnp.maximum(p["ramp_time"], 1e-12)
     alpha = laws.ramp(t, 0.0 * target, target, p["ramp_time"])
     roll = -_SY * _offset(p) * (target / duration) / p["wheel.radius"]
-    turning = (t >= 0.0) & (t < p["ramp_time"])
+    turning = (t > 0.0) & (t <= p["ramp_time"])
     return jnp.where(turning, roll, 0.0 * roll), alpha
 
 
@@ -222,7 +254,7 @@ def manual(sc, p, t):
 SCENARIOS: dict[str, tuple[Controls, dict[str, Any]]] = {
     "manual": (manual, {}),
     "straight_line": (straight_line, {}),
-    "steer_in_place": (steer_in_place, {"total_time": 3.0}),
+    "steer_in_place": (steer_in_place, {"total_time": 3.0, "drive_law": "ramp"}),  # the seed's laws
     "towing": (towing, {"towing": (False, False, True, True)}),
     "ackermann": (ackermann, {"total_time": 8.0}),
     "crab": (crab, {"total_time": 8.0, "steer_deg": 30.0}),
@@ -232,24 +264,43 @@ SCENARIOS: dict[str, tuple[Controls, dict[str, Any]]] = {
 }
 
 
+def law_time(sc: Scenario, t):
+    """Law time of engine time `t` (s from the first step): t - settle, held at 0 during the settle.
+
+    At step settle_steps, the first after the settle, it is exactly 0 with a time derivative
+    of 1, as engine time is at the first step of a run without a settle: the engines compute
+    step times i * dt by different routes (an XLA scan may fuse i * dt - settle into one
+    rounding), and a law's rate at a kink (jnp.clip's gradient at its bound is 1/2) must not
+    depend on the last bit. Before it the held value carries no time derivative, so the
+    steering rates are 0 while the laws are held."""
+    if not sc.settle_steps:
+        return t
+    t0 = jnp.asarray(sc.settle_steps, t.dtype) * jnp.asarray(sc.time_step, t.dtype)
+    tl = t - t0
+    near = jnp.abs(tl) <= 8 * jnp.finfo(t.dtype).eps * t0  # the rounding of i * dt at i = settle_steps
+    tl = jnp.where(near, tl - jax.lax.stop_gradient(tl), tl)  # exactly 0, derivative 1
+    return jnp.where(tl < 0, jnp.zeros_like(tl), tl)
+
+
 def controls_fn(sc: Scenario) -> Callable[[Mapping[str, Any], Any], Any]:
     """f(p, t) -> ctrl (16,) for the vehicle's actuators: omega, alpha, omega, dalpha/dt.
 
-    `p` maps scenario fields and vehicle paths (e.g. 'wheel.radius') to arrays.
+    `p` maps scenario fields and vehicle paths (e.g. 'wheel.radius') to arrays. `t` is engine
+    time, in s from the first step: the laws see `law_time` (held at 0 through the settle).
     The steering rate is the exact time derivative of the angle law (jax.jvp).
     """
     fn = SCENARIOS[sc.kind][0]
 
     def ctrl(p, t):
         t = jnp.asarray(t, dtype=jnp.result_type(float))
-        (omega, alpha), (_, dalpha) = jax.jvp(lambda tt: fn(sc, p, tt), (t,), (jnp.ones_like(t),))
+        (omega, alpha), (_, dalpha) = jax.jvp(lambda tt: fn(sc, p, law_time(sc, tt)), (t,), (jnp.ones_like(t),))
         return jnp.concatenate([omega, alpha, omega, dalpha])
 
     return ctrl
 
 
 def control_schedule(sc: Scenario) -> Callable[[Mapping[str, Any], Any], Any]:
-    """f(p, times) -> ctrl (len(times), 16) for one variant: `controls_fn` over a time array.
+    """f(p, times) -> ctrl (len(times), 16) for one variant: `controls_fn` over engine times.
 
     vmap it once more over `p` for many variants; jit it where it is called repeatedly.
     """

@@ -26,6 +26,7 @@ billion-variant grid at once, and `rows(start, stop)` builds one chunk.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,6 +41,10 @@ from batchveh.scenarios import Scenario, load_scenario, scenario_from_mapping
 from batchveh.stats import StatsConfig
 from batchveh.vehicle import Vehicle, load_vehicle, vehicle_from_mapping
 
+# numeric scenario fields that are neither swept nor fixed per sweep: they belong in the scenario
+SCENARIO_SETTINGS = tuple(
+    f.name for f in dataclasses.fields(Scenario) if f.metadata and not f.metadata.get("sweep", True)
+)
 MAX_VARIANTS = 10_000_000  # a sweep above this is refused unless the limit is raised (--max-variants)
 RNG_BLOCK = 65536  # random and lhs rows are drawn in blocks of this many, so values do not depend on chunking
 
@@ -52,7 +57,6 @@ class SolverOptions:
     iterations: int | None = field(None, ge=1)
     ls_iterations: int | None = field(None, ge=1)
     tolerance: float | None = field(None, gt=0)
-    impl: Literal["auto", "fused", "mjx"] = "auto"  # MJX backend: batchveh.solver's fused Newton or MJX's own
 
 
 @dataclass(frozen=True)
@@ -78,7 +82,7 @@ class SpecFile:
     window: tuple[float, float] | None = field(None, unit="s", ge=0)
     lowpass_s: float = field(0.05, unit="s", gt=0)
     chunk_size: int | None = field(None, ge=1)
-    backend: Literal["auto", "mjx", "mujoco"] = "auto"
+    backend: Literal["auto", "mujoco", "mjx", "warp"] = "auto"
     precision: Literal["f32", "f64"] = "f32"
     solver: SolverOptions = SolverOptions()
 
@@ -117,8 +121,7 @@ class SweepSpec:
 
     def stats_config(self) -> StatsConfig:
         """The reduction's settings: steps, window and filter."""
-        sc = self.scenario
-        return StatsConfig.make(sc.time_step, sc.n_steps, self.window, lowpass_s=self.lowpass_s)
+        return StatsConfig.for_scenario(self.scenario, self.window, lowpass_s=self.lowpass_s)
 
     def variant(self, row: Any) -> tuple[Vehicle, Scenario]:
         """The vehicle and scenario of one variant (a row of the variant or result table)."""
@@ -243,7 +246,7 @@ def check_run(scenario: Scenario, window: tuple[float, float] | None, where: str
     """Refuse a run that cannot give valid statistics: no steps, or a window outside the run or too short."""
     scenario.validate(where)
     try:
-        StatsConfig.make(scenario.time_step, scenario.n_steps, window)
+        StatsConfig.for_scenario(scenario, window)
     except ConfigError as err:
         raise ConfigError(f"{where}: {err}") from None
 
@@ -260,6 +263,11 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
     specs = parameter_specs(vehicle)
 
     def param_meta(key: str, at: str) -> dict:
+        if key in SCENARIO_SETTINGS:
+            raise ConfigError(
+                f"{where}: {at}.{key}: {key} is a scenario setting, not a parameter (it fixes the step count); "
+                f"allowed: set it in the scenario mapping, e.g. scenario: {{kind: straight_line, {key}: ...}}"
+            )
         if key not in specs:
             raise ConfigError(
                 f"{where}: {at}.{key}: unknown parameter {key!r}{did_you_mean(key, specs)}; allowed: {', '.join(specs)}"

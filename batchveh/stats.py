@@ -7,7 +7,14 @@ backend on (n, ...) numpy arrays, a block of steps at a time. Memory does not
 grow with the number of steps.
 
 Windows and filters (all recorded in the Parquet metadata):
-- the steady window [window_start, window_end] in s (default: second half of the run);
+- the settle: the first `settle_steps` steps, before law time 0 (scenarios: the laws held at
+  their t = 0 values while the vehicle settles onto its contacts). They enter no statistic,
+  `*_all`, energy, distance and max roll and pitch included; the low-pass filter runs
+  through them, so it starts the motion at the holding torque, and a diverged state in them
+  still marks the variant diverged. Step indices `i` count from the settle's first step;
+  times (the window, the time step's samples) count from law time 0;
+- the steady window [window_start, window_end] in s of law time (default: second half of
+  the run after the settle);
 - the 95th percentile of |torque| is taken over at most `p95_samples` samples of
   the steady window, evenly strided (the stride is recorded; exact when the
   window has fewer steps);
@@ -46,27 +53,34 @@ class StatsConfig:
     """Static settings of the reduction (they fix array shapes)."""
 
     dt: float  # time step, s
-    n_steps: int
-    window_start: float  # s
-    window_end: float  # s
+    n_steps: int  # every step the engine takes, the settle's included
+    window_start: float  # s of law time (from the end of the settle)
+    window_end: float  # s of law time
     lowpass_s: float = 0.05
     p95_samples: int = 256
+    settle_steps: int = 0  # the first steps, left out of every statistic
 
     @staticmethod
-    def make(dt: float, n_steps: int, window: tuple[float, float] | None = None, **kw: Any) -> StatsConfig:
-        """Settings for `n_steps` steps of `dt` s; the window defaults to the second half.
+    def make(
+        dt: float, n_steps: int, window: tuple[float, float] | None = None, settle_steps: int = 0, **kw: Any
+    ) -> StatsConfig:
+        """Settings for `n_steps` steps of `dt` s, of which the first `settle_steps` settle; the
+        window (law time, from the end of the settle) defaults to the second half of the rest.
 
-        Raises ConfigError where the statistics could not be valid: no steps, a window
-        outside (0, total time], or fewer than MIN_WINDOW_STEPS steps in it."""
-        total = dt * n_steps
-        if n_steps < 1:
-            raise ConfigError(f"total_time gives {n_steps} steps of {dt:g} s; allowed: at least one step")
+        Raises ConfigError where the statistics could not be valid: no steps after the settle, a
+        window outside (0, total time], or fewer than MIN_WINDOW_STEPS steps in it."""
+        run = n_steps - settle_steps
+        total = dt * run
+        if run < 1 or settle_steps < 0:
+            raise ConfigError(f"total_time gives {run} steps of {dt:g} s; allowed: at least one step")
         start, end = window if window is not None else (total / 2, total)
         if not 0 <= start < end <= total * (1 + 1e-9):
             raise ConfigError(
                 f"window: [{start:g}, {end:g}] s is not allowed; allowed: 0 <= start < end <= total_time ({total:g} s)"
             )
-        cfg = StatsConfig(dt=dt, n_steps=n_steps, window_start=start, window_end=min(end, total), **kw)
+        cfg = StatsConfig(
+            dt=dt, n_steps=n_steps, window_start=start, window_end=min(end, total), settle_steps=settle_steps, **kw
+        )
         if cfg.window_steps < MIN_WINDOW_STEPS:
             raise ConfigError(
                 f"window: [{start:g}, {end:g}] s holds {cfg.window_steps} steps of {dt:g} s; "
@@ -74,14 +88,20 @@ class StatsConfig:
             )
         return cfg
 
+    @staticmethod
+    def for_scenario(scenario: Any, window: tuple[float, float] | None = None, **kw: Any) -> StatsConfig:
+        """`make` for a scenario's steps and settle (a scenarios.Scenario)."""
+        return StatsConfig.make(scenario.time_step, scenario.n_steps, window, scenario.settle_steps, **kw)
+
     @property
     def first(self) -> int:
-        """First step index (0-based, the sample after step i is at t = (i+1) dt) inside the window."""
-        return max(0, math.ceil(self.window_start / self.dt - 1 - 1e-9))
+        """First step index inside the window (0-based from the settle's first step; the sample
+        after step i is at law time t = (i + 1 - settle_steps) dt)."""
+        return self.settle_steps + max(0, math.ceil(self.window_start / self.dt - 1 - 1e-9))
 
     @property
     def last(self) -> int:
-        return min(self.n_steps - 1, math.floor(self.window_end / self.dt - 1 + 1e-9))
+        return min(self.n_steps - 1, self.settle_steps + math.floor(self.window_end / self.dt - 1 + 1e-9))
 
     @property
     def window_steps(self) -> int:
@@ -191,20 +211,27 @@ def _span(inw, xp) -> str | None:
     return None if inw.any() else "none"
 
 
+def _bsum(w, x, span, axis, xp):
+    """(w * x).sum(axis) for step weights w of 0 or 1, with the masks skipped where `span` allows."""
+    if span == "all":
+        return x.sum(axis)
+    if span == "none":  # every term 0 * x: 0 unless some x is not finite
+        return xp.where(xp.isfinite(x).all(axis), 0.0, np.nan)
+    return (w * x).sum(axis)
+
+
 def _wsum(c, w, x, span, axis, xp):
     """c + (w * x).sum(axis) for step weights w of 0 or 1, with the masks skipped where `span` allows."""
-    if span == "all":
-        return c + x.sum(axis)
-    if span == "none":  # every term 0 * x: the carry is unchanged unless some x is not finite
-        return c + xp.where(xp.isfinite(x).all(axis), 0.0, np.nan)
-    return c + (w * x).sum(axis)
+    return c + _bsum(w, x, span, axis, xp)
 
 
-def _wmax(c, inw, x, span, xp):
-    """max(c, largest x over the block's steps inside the window); x (..., B, K) is >= 0."""
+def _wmax(c, inw, x, span, xp, axis=-2):
+    """max(c, largest x over the block's steps where inw (B,)); x (..., B, K) (axis -2) or (..., B)
+    (axis -1) is >= 0."""
     if span == "none":
         return c
-    return xp.maximum(c, (x if span == "all" else xp.where(inw[:, None], x, 0.0)).max(-2))
+    mask = inw[:, None] if axis == -2 else inw
+    return xp.maximum(c, (x if span == "all" else xp.where(mask, x, 0.0)).max(axis))
 
 
 def _store(buf, slot, absx, xp):
@@ -232,12 +259,17 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
     (rad); alpha (..., B, 4) steering angle rad; pos (..., B, 3) m; quat (..., B, 4);
     vel (..., B, 3) chassis linear velocity m/s (world). The MJX scan folds blocks
     of one step; the MuJoCo C backend folds blocks of a rollout, cheapest when each
-    block lies wholly inside or outside the steady window (`_span`).
+    block lies wholly inside or outside the steady window and the settle (`_span`).
+    Steps i < cfg.settle_steps (the settle) enter no statistic; only the low-pass state,
+    the divergence flag and the final pose follow them.
     """
     tau = xp.concatenate([s["tau"], s["tau"][..., :4].sum(-1, keepdims=True)], axis=-1)
     absx = xp.abs(tau)
     inw = (i >= cfg.first) & (i <= cfg.last)  # (B,)
     span = _span(inw, xp)
+    run = i >= cfg.settle_steps  # (B,): past the settle
+    span_r = "all" if cfg.settle_steps == 0 else _span(run, xp)
+    wr = xp.where(run, 1.0, 0.0)
     w = xp.where(inw, 1.0, 0.0)
     wk = w[:, None]
     out = dict(c)
@@ -252,20 +284,21 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
         out["max"] = xp.maximum(c["max"], (tau if span == "all" else xp.where(inw[:, None], tau, -np.inf)).max(-2))
     slot = xp.where(inw & ((i - cfg.first) % cfg.stride == 0), (i - cfg.first) // cfg.stride, -1)  # (B,)
     out["buf"] = _store(c["buf"], slot, absx, xp)
-    out["peak_all"] = xp.maximum(c["peak_all"], absx.max(-2))
+    out["peak_all"] = _wmax(c["peak_all"], run, absx, span_r, xp)
     lp = _lowpass(c["lp"], tau, cfg.dt / (cfg.lowpass_s + cfg.dt), xp)
     out["lp"] = lp[..., -1, :]
     abs_lp = xp.abs(lp)
     out["lp_peak"] = _wmax(c["lp_peak"], inw, abs_lp, span, xp)
-    out["lp_peak_all"] = xp.maximum(c["lp_peak_all"], abs_lp.max(-2))
+    out["lp_peak_all"] = _wmax(c["lp_peak_all"], run, abs_lp, span_r, xp)
     power = s["tau"][..., :4] * s["omega"]
-    out["energy"] = c["energy"] + power.sum(-2) * cfg.dt
-    out["power_peak"] = xp.maximum(c["power_peak"], xp.abs(power).max(-2))
+    out["energy"] = c["energy"] + _bsum(wr[:, None], power, span_r, -2, xp) * cfg.dt
+    out["power_peak"] = _wmax(c["power_peak"], run, xp.abs(power), span_r, xp)
     vel = s["vel"]
-    out["distance"] = c["distance"] + xp.sqrt(vel[..., 0] ** 2 + vel[..., 1] ** 2).sum(-1) * cfg.dt
+    speed = xp.sqrt(vel[..., 0] ** 2 + vel[..., 1] ** 2)
+    out["distance"] = c["distance"] + _bsum(wr, speed, span_r, -1, xp) * cfg.dt
     roll, pitch, yaw = _roll_pitch_yaw(s["quat"], xp)  # (..., B)
-    out["roll"] = xp.maximum(c["roll"], xp.abs(roll).max(-1))
-    out["pitch"] = xp.maximum(c["pitch"], xp.abs(pitch).max(-1))
+    out["roll"] = _wmax(c["roll"], run, xp.abs(roll), span_r, xp, axis=-1)
+    out["pitch"] = _wmax(c["pitch"], run, xp.abs(pitch), span_r, xp, axis=-1)
     sane = (
         xp.all(absx < HUGE_TORQUE, axis=(-2, -1))  # False for NaN too
         & xp.all(xp.abs(s["vel"]) < HUGE_SPEED, axis=(-2, -1))

@@ -35,11 +35,11 @@ TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match
 
 # Rough rates in variant-steps/s for the dry run's estimate, measured (benchmarks/RESULTS.md):
 # MuJoCo C 9.4e4 on 2 threads with the default elliptic contact (the main job); MJX on the CPU
-# 1.0e4 on 2 cores; MJX on one H200 8.5e6 (cylinder wheels, fused solver, pyramidal contact)
-RATE_MUJOCO_PER_THREAD = 4.7e4
-RATE_MJX_CPU_PER_CORE = 5.0e3
-RATE_MJX_PER_GPU = 8.0e6
-COMPILE_S = {"mujoco": 2.0, "mjx-cpu": 60.0, "mjx-gpu": 15.0}
+# 1.0e4 on 2 cores; MJX on one H200 1.3e6 (elliptic contact, float32, Newton 8); the warp
+# engine 4.5e3 on 2 CPU cores (256 variants) and, on one H200, the rate in RATE_PER_GPU
+RATE_PER_CPU = {"mujoco": 4.7e4, "mjx": 5.0e3, "warp": 2.2e3}  # per MuJoCo thread or CPU core
+RATE_PER_GPU = {"mjx": 1.3e6, "warp": 1.0e7}
+COMPILE_S = {"mujoco": 2.0, "mjx-cpu": 60.0, "mjx-gpu": 15.0, "warp-cpu": 40.0, "warp-gpu": 60.0}
 
 
 def _versions() -> dict[str, str]:
@@ -57,10 +57,10 @@ def _versions() -> dict[str, str]:
 
 
 def _device(backend: str) -> str:
-    if backend == "mjx":
+    if backend in ("mjx", "warp"):
         import jax
 
-        devs = jax.devices()
+        devs = jax.devices()[: 1 if backend == "warp" else None]
         return f"{len(devs)} x {devs[0].device_kind} ({devs[0].platform})"
     return f"{os.cpu_count()} CPU threads ({platform.processor() or platform.machine()})"
 
@@ -120,7 +120,6 @@ def run_sweep(
         chunk_size or spec.chunk_size,
         n_variants=n,
         precision=spec.precision,
-        solver_impl=spec.solver.impl,
     )
     chunk = engine.chunk_size
     manifest = {
@@ -131,7 +130,10 @@ def run_sweep(
         "precision": spec.precision,
         "solver_impl": engine.solver_impl,
         "table_version": TABLE_VERSION,
+        "settle_time": spec.scenario.settle_time,  # the default may change: a resume must match it
     }
+    engine_meta = {"implementation": engine.implementation, "solver": solver_settings(spec)}
+    manifest.update(engine_meta)
     folder = ResultFolder(out or spec.output)
     specs = parameter_specs(spec.vehicle)
     param_units = {k: specs[k].get("unit", "") for k in spec.params}
@@ -141,6 +143,7 @@ def run_sweep(
         "device": _device(backend),
         "backend": backend,
         "solver_impl": engine.solver_impl,
+        **engine_meta,
         "precision": spec.precision,
         "window_s": [cfg.window_start, cfg.window_end],
         "lowpass_s": cfg.lowpass_s,
@@ -209,6 +212,25 @@ def run_sweep(
     }
 
 
+def solver_settings(spec: SweepSpec) -> dict[str, Any]:
+    """The constraint solver and contact options every variant runs with (MuJoCo's names)."""
+    import mujoco
+
+    from batchveh.batch import model_for
+
+    m = model_for(spec.vehicle, spec.scenario)
+    apply_solver(m, spec.solver)
+    return {
+        "solver": mujoco.mjtSolver(m.opt.solver).name.removeprefix("mjSOL_").lower(),
+        "iterations": int(m.opt.iterations),
+        "ls_iterations": int(m.opt.ls_iterations),
+        "tolerance": float(m.opt.tolerance),
+        "cone": mujoco.mjtCone(m.opt.cone).name.removeprefix("mjCONE_").lower(),
+        "impratio": float(m.opt.impratio),
+        "integrator": mujoco.mjtIntegrator(m.opt.integrator).name.removeprefix("mjINT_").lower(),
+    }
+
+
 def estimate(backend: str, variant_steps: int) -> tuple[float, str]:
     """(seconds, on what) for `variant_steps` on the backend and the devices this process sees."""
     from batchveh.engines import has_gpu
@@ -217,15 +239,15 @@ def estimate(backend: str, variant_steps: int) -> tuple[float, str]:
         from batchveh.engines.mujoco import default_threads
 
         threads = default_threads()
-        rate, where, compile_s = RATE_MUJOCO_PER_THREAD * threads, f"{threads} CPU threads", COMPILE_S["mujoco"]
+        rate, where, compile_s = RATE_PER_CPU["mujoco"] * threads, f"{threads} CPU threads", COMPILE_S["mujoco"]
     elif has_gpu():
         import jax
 
-        gpus = len(jax.devices())
-        rate, where, compile_s = RATE_MJX_PER_GPU * gpus, f"{gpus} GPU", COMPILE_S["mjx-gpu"]
+        gpus = 1 if backend == "warp" else len(jax.devices())
+        rate, where, compile_s = RATE_PER_GPU[backend] * gpus, f"{gpus} GPU", COMPILE_S[f"{backend}-gpu"]
     else:
         cores = os.cpu_count() or 1
-        rate, where, compile_s = RATE_MJX_CPU_PER_CORE * cores, f"{cores} CPU cores", COMPILE_S["mjx-cpu"]
+        rate, where, compile_s = RATE_PER_CPU[backend] * cores, f"{cores} CPU cores", COMPILE_S[f"{backend}-cpu"]
     return compile_s + variant_steps / rate, f"{backend} on {where}, about {rate:.2g} variant-steps/s"
 
 
@@ -284,8 +306,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, help="result folder (default: the spec's output)")
     parser.add_argument(
         "--backend",
-        choices=("auto", "mjx", "mujoco"),
-        help="auto: mjx when JAX sees a GPU, else mujoco (MuJoCo C on the CPU threads)",
+        choices=("auto", "mujoco", "mjx", "warp"),
+        help="auto: warp (MJX's Warp implementation) on a CUDA GPU with warp-lang installed, mjx (MJX's JAX "
+        "implementation) on another GPU, else mujoco (MuJoCo C on the CPU threads)",
     )
     parser.add_argument("--resume", action="store_true", help="keep finished chunks and run the rest")
     parser.add_argument("--overwrite", action="store_true", help="delete existing results first")

@@ -247,7 +247,7 @@ def _rate(rows, size, block):
     return max(r["rate"] for r in rows if r["variants"] == size and r["block"] == block)
 
 
-def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="highest", impl="auto", nthread=0):
+def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="highest", nthread=0):
     """(columns, wall s, compile s, peak device bytes) of batchveh's backend on the table."""
     import jax
 
@@ -265,7 +265,6 @@ def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="h
         len(table),
         precision="f64" if x64 and kind == "mjx" else "f32",
         matmul_precision=matmul,
-        solver_impl=impl,
         nthread=nthread,
     )
     out, t_run = [], 0.0
@@ -277,10 +276,55 @@ def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="h
         t_run += time.perf_counter() - t0
     cols = {k: np.concatenate([o[k] for o in out]) for k in out[0]}
     peak = 0
-    if kind == "mjx":
+    if kind in ("mjx", "warp"):
         stats_ = jax.devices()[0].memory_stats() or {}
         peak = stats_.get("peak_bytes_in_use", 0)
     return cols, t_run - be.compile_s, be.compile_s, peak
+
+
+def warp_rows(rows, spec, ref_table, ref, solver, sizes, direct_sizes, n_steps):
+    """Rows of batchveh's warp engine and of MuJoCo Warp driven directly, at each size; the
+    warp engine's accuracy on the reference sample."""
+    from mjwarp_direct import bench_mjwarp_direct
+
+    from batchveh.batch import make_batch
+    from batchveh.scenarios import gravity_vector
+
+    cols_acc, *_ = run_backend("warp", spec, ref_table, len(ref_table), solver)
+    acc = accuracy(cols_acc, ref)
+    limit = cols_acc.get("solver_limit_share")
+    for size in sizes:
+        _, table = slope_table(size, seed=3)
+        try:
+            _, wall, comp, peak = run_backend("warp", spec, table, size, solver)
+        except Exception as err:  # out of memory: record and go on
+            rows.append({"name": f"batchveh warp {solver} f32 n={size}", "error": str(err)[:200]})
+            continue
+        row = {
+            "name": f"batchveh warp {solver} f32 n={size}",
+            "rate": size * n_steps / wall,
+            "compile_s": comp,
+            "peak_mem_gb": peak / 1e9,
+            "accuracy": acc,
+            "ref_solver_limit_share_max": None if limit is None else float(np.max(limit)),
+        }
+        rows.append(row)
+        print(row, flush=True)
+    for size in direct_sizes:
+        _, table = slope_table(size, seed=3)
+        cols = _cols(table, spec)
+        batch = make_batch(spec.vehicle, spec.scenario, {})
+        set_solver(batch.model, solver)
+        gravity = np.asarray(gravity_vector(np.full(size, spec.scenario.gravity), cols["slope_deg"], xp=np))
+        omega = cols["speed_kmh"] / 3.6 / spec.vehicle.wheel.radius
+        name = f"MuJoCo Warp direct (CUDA graph of 50 steps, no statistics) {solver} n={size}"
+        try:
+            rate, extra = bench_mjwarp_direct(batch.model, gravity, cols["friction"], omega, n_steps)
+        except Exception as err:
+            rows.append({"name": name, "error": str(err)[:200]})
+            continue
+        rows.append({"name": name, "rate": rate, **extra})
+        print(rows[-1], flush=True)
 
 
 FLOOR_NM = 1.0  # below 1 N m, errors are compared in absolute terms
@@ -329,16 +373,12 @@ def main():
     ap.add_argument("--serial-variants", type=int, default=8)
     ap.add_argument("--ref-variants", type=int, default=256, help="sample for the accuracy reference")
     ap.add_argument("--mjx-sizes", type=int, nargs="*", default=[256])
+    ap.add_argument("--warp-sizes", type=int, nargs="*", default=[], help="batchveh warp engine batch sizes")
+    ap.add_argument("--direct-sizes", type=int, nargs="*", default=[], help="MuJoCo Warp driven directly: sizes")
+    ap.add_argument("--warp-solvers", nargs="*", default=["default"], choices=list(SOLVERS))
     ap.add_argument("--solvers", nargs="*", default=["default"], choices=list(SOLVERS))
     ap.add_argument("--precisions", nargs="*", default=["f32"], choices=["f32", "f64"], help="mjx float precisions")
     ap.add_argument("--skip-cpu", action="store_true")
-    ap.add_argument(
-        "--impls",
-        nargs="*",
-        default=["auto"],
-        choices=["auto", "fused", "mjx"],
-        help="mjx constraint solver code: batchveh.solver's fused Newton, MJX's own, or auto (fused on GPU)",
-    )
     ap.add_argument(
         "--matmul",
         nargs="*",
@@ -415,23 +455,15 @@ def main():
         rows[-1]["accuracy"] = accuracy(cols_ref, ref)
         print(rows[-4:], flush=True)
 
-    from batchveh.engines import resolve_solver_impl
-
-    configs = [
-        (p == "f64", s, mm, resolve_solver_impl(i))
-        for p in args.precisions
-        for s in args.solvers
-        for mm in args.matmul
-        for i in args.impls
-    ]
-    for x64, solver, mm, impl in configs:
-        cols_acc, *_ = run_backend("mjx", spec, ref_table, args.ref_variants, solver, x64, mm, impl)
+    configs = [(p == "f64", s, mm) for p in args.precisions for s in args.solvers for mm in args.matmul]
+    for x64, solver, mm in configs:
+        cols_acc, *_ = run_backend("mjx", spec, ref_table, args.ref_variants, solver, x64, mm)
         acc = accuracy(cols_acc, ref)
-        label = f"batchveh mjx {solver} {impl} {'f64' if x64 else 'f32'}{'' if mm == 'highest' else ' mm=' + mm}"
+        label = f"batchveh mjx {solver} {'f64' if x64 else 'f32'}{'' if mm == 'highest' else ' mm=' + mm}"
         for size in args.mjx_sizes:
             _, table = slope_table(size, seed=3)
             try:
-                _, wall, comp, peak = run_backend("mjx", spec, table, size, solver, x64, mm, impl)
+                _, wall, comp, peak = run_backend("mjx", spec, table, size, solver, x64, mm)
             except Exception as err:  # out of memory: record and go on
                 rows.append({"name": f"{label} n={size}", "error": str(err)[:200]})
                 continue
@@ -444,7 +476,10 @@ def main():
             }
             rows.append(row)
             print(row, flush=True)
-    if raw_rate and len(configs) and args.mjx_sizes:  # the peer again after the GPU rows: the mean of both
+    for solver in args.warp_solvers if args.warp_sizes or args.direct_sizes else []:
+        warp_rows(rows, spec, ref_table, ref, solver, args.warp_sizes, args.direct_sizes, n_steps)
+    # the peer again after the GPU rows: the mean of both
+    if raw_rate and (len(configs) and args.mjx_sizes or args.warp_sizes):
         again, _ = bench_raw_rollout(spec, peer_table, n_steps, peer["block"], peer["threads"])
         rows[0]["peer_runs"].append(again)
         raw_rate = rows[0]["rate"] = sum(rows[0]["peer_runs"]) / 2

@@ -1,7 +1,9 @@
-"""Scaling over the GPUs of one host: batchveh mjx on the slope variants, all local devices.
+"""Scaling over the GPUs of one host: batchveh mjx (all local devices) or warp (one device per
+process) on the slope variants.
 
     CUDA_VISIBLE_DEVICES=0 python benchmarks/scaling.py --n 131072    # one GPU
-    python benchmarks/scaling.py --n 131072                            # every GPU
+    python benchmarks/scaling.py --n 131072                            # every GPU (mjx)
+    CUDA_VISIBLE_DEVICES=1 python benchmarks/scaling.py --backend warp & ...   # warp: a process per GPU
 
 Prints one JSON line: devices, variants, variant-steps/s (run only, after the compile).
 """
@@ -20,28 +22,24 @@ def main():
     ap.add_argument("--n", type=int, default=131072)
     ap.add_argument("--solver", default="newton4")
     ap.add_argument("--repeat", type=int, default=2)
-    ap.add_argument("--impl", default="auto", choices=["auto", "fused", "mjx"], help="constraint solver code")
+    ap.add_argument("--backend", default="mjx", choices=["mjx", "warp"])
     args = ap.parse_args()
     import jax
     from bench import run_backend, slope_table
 
-    from batchveh.engines import resolve_solver_impl
-
-    impl = resolve_solver_impl(args.impl)
-
     spec, table = slope_table(args.n, seed=3)
     best = 0.0
     for _ in range(args.repeat):  # the first call compiles; keep the best run
-        _, wall, comp, _ = run_backend("mjx", spec, table, args.n, args.solver, impl=impl)
+        _, wall, comp, _ = run_backend(args.backend, spec, table, args.n, args.solver)
         best = max(best, args.n * spec.scenario.n_steps / wall)
     print(
         json.dumps(
             {
-                "devices": len(jax.devices()),
+                "devices": 1 if args.backend == "warp" else len(jax.devices()),
                 "kind": jax.devices()[0].device_kind,
                 "variants": args.n,
                 "solver": args.solver,
-                "solver_impl": impl,
+                "backend": args.backend,
                 "variant_steps_per_s": best,
                 "compile_s": comp,
             }

@@ -95,8 +95,13 @@ def test_sweep_figures_and_seed_figures_of_a_variant(sweep, tmp_path):
     vehicle, scenario = spec_of_result(out).variant(row)
     assert scenario.slope_deg == row.slope_deg and scenario.friction == row.friction
     res = batchveh.simulate(vehicle, scenario)
-    # the sweep's MuJoCo C engine and simulate evaluate the control laws in float32 by different
-    # routes (times vs step counts): measured 5.0e-8 for this row, 6.3e-8 worst over the sweep
-    np.testing.assert_allclose(res.stats["drive_sum_mean"], row.drive_sum_mean, rtol=2e-7)
+    # the same physics up to the model's gravity: the sweep computes it per variant in float64, the
+    # single run's model in float32 (Scenario.gravity_vector), 5e-8 apart. With the linear ramp that
+    # difference stayed 5e-8 in this row, but smooth_step's higher peak acceleration (3.1 m/s^2 over
+    # 0.5 s to 3 km/h) makes the front/rear split sensitive (a 1e-6 change of the slope moves the
+    # per-wheel series by 0.05 N m), and the drive sum's window mean inherits a little of it. Measured
+    # 2.45e-6 for this row, the worst of the sweep's non-slipping rows; a variant set up wrongly (one
+    # grid step of slope, friction or speed) would be off by percents
+    np.testing.assert_allclose(res.stats["drive_sum_mean"], row.drive_sum_mean, rtol=1e-5)
     figs = plot.seed_figures(res.series, tmp_path / "seed", "variant 7")
     assert len(figs) == 4 and all(p.exists() for p in figs)

@@ -13,7 +13,8 @@ def test_frames_are_not_blank_and_move(vehicle):
 
     imgs = frames(
         vehicle,
-        make_scenario("straight_line", total_time=2.0, ramp_time=0.5, speed_kmh=5.0),
+        # no settle: the frames are taken from the first step, and a settle would hold the vehicle still
+        make_scenario("straight_line", total_time=2.0, ramp_time=0.5, speed_kmh=5.0, settle_time=0.0),
         fps=10,
         width=160,
         height=120,
@@ -54,7 +55,15 @@ def test_render_cli_writes_a_gif(tmp_path):
     from PIL import Image
 
     with Image.open(out) as im:
-        assert im.n_frames == 10 and im.size == (96, 72)  # 0.5 s at the default 20 frames/s
+        # the default 0.5 s settle (the renderer shows every step) and 0.5 s of motion, 20 frames of
+        # 50 ms; Pillow merges identical consecutive frames (the vehicle at rest in the settle) into one
+        # longer frame, so the frames' durations add up to 1 s whatever their number
+        assert im.size == (96, 72)
+        durations = []
+        for k in range(im.n_frames):
+            im.seek(k)
+            durations.append(im.info["duration"])
+        assert sum(durations) == 1000 and im.n_frames > 10, durations
 
 
 def test_import_works_where_egl_is_missing(tmp_path):

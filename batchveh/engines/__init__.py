@@ -7,17 +7,21 @@ An engine is built for one scenario and reduction (`stats.StatsConfig`) and has
 
 - `mujoco` (engines/mujoco.py): MuJoCo C through mujoco.batch, on the CPU; the reference.
 - `mjx` (engines/mjx.py): MuJoCo MJX, JAX implementation, on JAX's devices.
+- `warp` (engines/warp.py): MuJoCo MJX, Warp implementation (MuJoCo Warp), float32, on one
+  CUDA GPU or the CPU.
+
+Each also tells its `implementation`: a line for the manifest and the Parquet metadata.
 """
 
 from __future__ import annotations
 
 from batchveh import stats
-from batchveh.engines.common import auto_chunk, has_gpu, resolve_backend, resolve_solver_impl
+from batchveh.engines.common import auto_chunk, has_gpu, resolve_backend
 from batchveh.scenarios import Scenario
 
-ENGINES = ("mujoco", "mjx")
+ENGINES = ("mujoco", "mjx", "warp")
 
-__all__ = ["ENGINES", "auto_chunk", "has_gpu", "make_engine", "resolve_backend", "resolve_solver_impl"]
+__all__ = ["ENGINES", "auto_chunk", "has_gpu", "make_engine", "resolve_backend"]
 
 
 def make_engine(
@@ -29,19 +33,21 @@ def make_engine(
     *,
     precision: str = "f32",
     matmul_precision: str = "highest",
-    solver_impl: str = "auto",
     nthread: int = 0,
 ):
-    """Build the named engine ('mjx' or 'mujoco'); chunk size automatic unless given.
+    """Build the named engine ('mujoco', 'mjx' or 'warp'); chunk size automatic unless given.
 
-    precision (mjx): 'f32' or 'f64', scoped to the engine's calls. solver_impl (mjx): 'fused'
-    (batchveh.solver), 'mjx' (MJX's own), 'auto' (fused on a GPU). nthread (mujoco): MuJoCo
+    precision (mjx): 'f32' or 'f64', scoped to the engine's calls (warp: f32 only). nthread (mujoco): MuJoCo
     threads; 0 for `engines.mujoco.default_threads()`."""
     chunk = chunk_size or auto_chunk(name, n_variants)
+    if name == "warp":
+        from batchveh.engines.warp import WarpEngine
+
+        return WarpEngine(scenario, cfg, chunk, precision)
     if name == "mjx":
         from batchveh.engines.mjx import MjxEngine
 
-        return MjxEngine(scenario, cfg, chunk, matmul_precision, solver_impl, precision)
+        return MjxEngine(scenario, cfg, chunk, matmul_precision, precision)
     from batchveh.engines.mujoco import MujocoEngine
 
     return MujocoEngine(scenario, cfg, chunk, nthread)

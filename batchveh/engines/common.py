@@ -7,12 +7,14 @@ import numpy as np
 
 from batchveh.batch import VariantBatch
 
-GPU_CHUNK_MAX = 131072  # fused solver: 131k ran 8-11% faster than 65k on one H200 (benchmarks/RESULTS.md)
-GPU_BYTES_PER_VARIANT = 19e3  # measured peak device memory per variant (2.47 GB at 131072)
+# warp engine on one H200, elliptic contact: 4.88e6 / 4.98e6 / 4.98e6 variant-steps/s at 65k / 131k / 262k
+# variants (benchmarks/results/h200-warp-elliptic10.json): 131k is as fast as any larger chunk
+GPU_CHUNK_MAX = 131072
+GPU_BYTES_PER_VARIANT = 35e3  # measured peak device memory per variant (warp: 4.54 GB at 131072, pyramidal)
 # mujoco: per-chunk costs (Batch setup and reset, the last block's fold, finalize, a Parquet part) are
 # paid once per chunk: 4096 ran 0.81x raw mujoco.batch on 16 cores where 1024 ran 0.73x (median of 4
 # alternated pairs, benchmarks/results/h200-cpu16-overhead.json); on 2 cores 2048 and 1024 tied (0.91x)
-CPU_CHUNK = {"mujoco": 4096, "mjx": 256}
+CPU_CHUNK = {"mujoco": 4096, "mjx": 256, "warp": 256}
 
 
 def has_gpu() -> bool:
@@ -24,24 +26,23 @@ def has_gpu() -> bool:
 
 
 def resolve_backend(name: str) -> str:
-    """'auto' is mjx when JAX sees a GPU, otherwise mujoco."""
+    """'auto' is warp when JAX sees a CUDA GPU and warp-lang is installed, mjx on another JAX
+    accelerator (or without warp-lang), otherwise mujoco (MuJoCo C on the CPU threads)."""
     if name == "auto":
-        return "mjx" if has_gpu() else "mujoco"
-    return name
+        if not has_gpu():
+            return "mujoco"
+        from batchveh.engines.warp import warp_installed
 
-
-def resolve_solver_impl(name: str) -> str:
-    """The MJX engine's solver code: 'auto' is 'fused' (batchveh.solver) when JAX sees a GPU,
-    else 'mjx' (MJX's own: on the CPU it is faster and compiles sooner)."""
-    if name == "auto":
-        return "fused" if has_gpu() else "mjx"
+        gpu = any(d.platform == "gpu" for d in jax.devices())
+        return "warp" if gpu and warp_installed() else "mjx"
     return name
 
 
 def auto_chunk(name: str, n_variants: int | None) -> int:
     """Variants per chunk: as many as fit (GPU) in equal chunks, with little padding."""
     if name == "mujoco" or not has_gpu():
-        return CPU_CHUNK[name]
+        # a small sweep is one chunk of its own size: nothing is padded
+        return min(CPU_CHUNK[name], n_variants) if n_variants else CPU_CHUNK[name]
     limit = GPU_CHUNK_MAX
     mem = jax.devices()[0].memory_stats() or {}
     if "bytes_limit" in mem:

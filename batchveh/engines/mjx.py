@@ -3,8 +3,7 @@
 The model fields that vary are batched with an `in_axes` tree (`batch.mjx_model`);
 time runs in `lax.scan` and the statistics live in its carry. A short last chunk is
 padded to the chunk shape (no second compile). Variants are sharded over all local
-devices. On a GPU the constraint solve is batchveh.solver's fused Newton solver
-(`solver.impl`). On the CPU, `lax.map` runs the vmap in blocks of 64: wider Newton
+devices. The constraint solve is MJX's own. On the CPU, `lax.map` runs the vmap in blocks of 64: wider Newton
 vmaps hung in jaxlib's batched Cholesky there. The whole chunk (model upload,
 trace, compile and call) runs inside `rollout.float_precision`, so float64 is
 scoped to the engine and never switched on for the process.
@@ -12,16 +11,18 @@ scoped to the engine and never switched on for the process.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from typing import Any
 
 import jax
 import jax.numpy as jnp
+import mujoco
 import numpy as np
 
 from batchveh import stats
 from batchveh.batch import VariantBatch, mjx_model
-from batchveh.engines.common import pad, resolve_solver_impl
+from batchveh.engines.common import pad
 from batchveh.rollout import float_precision, mjx_stats
 from batchveh.scenarios import Scenario
 from batchveh.vehicle import layout
@@ -33,6 +34,8 @@ class MjxEngine:
     """MJX on the default JAX device(s)."""
 
     name = "mjx"
+    impl = "jax"  # MJX's implementation (mjx.put_model's impl)
+    solver_impl = "mjx"  # whose solver code runs: MJX's own
 
     def __init__(
         self,
@@ -40,7 +43,6 @@ class MjxEngine:
         cfg: stats.StatsConfig,
         chunk_size: int,
         matmul_precision: str = "highest",
-        solver_impl: str = "auto",
         precision: str = "f32",
     ):
         self.scenario, self.cfg, self.precision = scenario, cfg, precision
@@ -48,7 +50,6 @@ class MjxEngine:
         self.matmul_precision = matmul_precision
         self.devices = jax.devices()
         self.on_cpu = self.devices[0].platform == "cpu"
-        self.solver_impl = resolve_solver_impl(solver_impl)
         nd = len(self.devices)
         self.chunk_size = max(nd, (chunk_size // nd) * nd)
         self._fn: dict[Any, Any] = {}
@@ -59,12 +60,13 @@ class MjxEngine:
         """Programs compiled so far (one per set of varying fields and chunk shape)."""
         return len(self._fn)
 
-    def _compiled(self, batch: VariantBatch, mx, axes, params):
-        from batchveh.solver import fused_solver
+    @property
+    def implementation(self) -> str:
+        """What steps the variants, for the manifest and the Parquet metadata."""
+        return f"MuJoCo MJX {mujoco.__version__}, JAX implementation"
 
-        key = (tuple(sorted(batch.fields)), batch.n)
-        if key in self._fn:
-            return self._fn[key]
+    def _program(self, batch: VariantBatch, mx, axes):
+        """The function of (model, params) to compile for the chunk."""
         lay = layout(batch.model)
         one = lambda m, p: mjx_stats(m, p, scenario=self.scenario, cfg=self.cfg, lay=lay)  # noqa: E731
         if self.on_cpu and batch.n > CPU_BLOCK:
@@ -83,22 +85,31 @@ class MjxEngine:
 
                 return jax.lax.map(one_of, ([leaves_all[i] for i in varying], p), batch_size=CPU_BLOCK)
 
-            fn = jax.jit(run)
-        else:
-            fn = jax.jit(jax.vmap(one, in_axes=(axes, 0)))
+            return run
+        return jax.vmap(one, in_axes=(axes, 0))
+
+    def _compiled(self, batch: VariantBatch, mx, axes, params):
+        key = (tuple(sorted(batch.fields)), batch.n)
+        if key in self._fn:
+            return self._fn[key]
+        fn = jax.jit(self._program(batch, mx, axes))
         t0 = time.perf_counter()
-        with jax.default_matmul_precision(self.matmul_precision), fused_solver(self.solver_impl == "fused"):
+        with jax.default_matmul_precision(self.matmul_precision):
             compiled = fn.lower(mx, params).compile()
         self.compile_s += time.perf_counter() - t0
         self._fn[key] = compiled
         return compiled
 
+    def _call_context(self):
+        """The context around a chunk's upload, compile and call."""
+        return contextlib.nullcontext()
+
     def run(self, batch: VariantBatch) -> dict[str, np.ndarray]:
         """Statistics columns of the chunk's variants, (n,) each."""
         n = batch.n
         batch = pad(batch, self.chunk_size)
-        with float_precision(self.precision):
-            mx, axes = mjx_model(batch)
+        with float_precision(self.precision), self._call_context():
+            mx, axes = mjx_model(batch, self.impl)
             dtype = jnp.result_type(float)
             params = {k: jnp.asarray(v, dtype) for k, v in batch.params.items()}
             if len(self.devices) > 1:

@@ -73,6 +73,7 @@ class MujocoEngine:
 
     name = "mujoco"
     solver_impl = "mujoco"  # MuJoCo C's own solver
+    implementation = f"MuJoCo C {mujoco.__version__} through mujoco.batch, float64"
     compile_s = 0.0
     compiles = 0
 
@@ -105,7 +106,8 @@ class MujocoEngine:
         # motor joint speeds before each block's first step: after reset, then each block's last
         first = np.array(b.qvel)[:, lay.motor_dof]
         dt = m.opt.timestep
-        sizes = {"qpos": m.nq, "qvel": m.nv, "qfrc_actuator": m.nv}
+        sizes = {"qpos": m.nq, "qvel": m.nv, "qfrc_actuator": m.nv, "solver_niter": mujoco.mjNISLAND}
+        kinds = {"solver_niter": np.int32}  # the other records are float64
         edges = [*range(0, self.cfg.n_steps, self.block), self.cfg.n_steps]
         longest = int(max(np.diff(edges)))
         params: dict[str, jax.Array] = {}  # filled by the first controls call, off the main thread
@@ -130,6 +132,8 @@ class MujocoEngine:
             )
             if failed[tile].any():
                 sample["tau"] = np.where(failed[tile, None, None], np.nan, sample["tau"])
+            # steps whose solve stopped on the iteration limit (the largest island's count)
+            at_limit[tile] += (part["solver_niter"].max(-1) >= m.opt.iterations).sum(-1)
             return stats.update(acc, sample, steps, self.cfg)
 
         def fold_all(accs, *block):
@@ -141,8 +145,11 @@ class MujocoEngine:
         tiles = [slice(lo, min(lo + TILE, batch.n)) for lo in range(0, batch.n, TILE)]
         accs = [stats.init(self.cfg, (t.stop - t.start,)) for t in tiles]
         # two record buffers, used in turn: flat, so that each block's records are a contiguous prefix
-        flat = [{r: np.empty(batch.n * longest * d) for r, d in sizes.items()} for _ in range(2)]
+        flat = [
+            {r: np.empty(batch.n * longest * d, kinds.get(r, np.float64)) for r, d in sizes.items()} for _ in range(2)
+        ]
         failed = np.zeros(batch.n, bool)
+        at_limit = np.zeros(batch.n, np.int64)
         # two workers: one folds block k-1, the other computes block k+1's controls (JAX), both
         # while MuJoCo steps block k (two fold workers, each with half the tiles, ran no faster
         # on 2 cores)
@@ -171,4 +178,6 @@ class MujocoEngine:
         with ThreadPoolExecutor(min(cpus(), len(tiles))) as tail:  # every CPU is free now
             accs = list(tail.map(lambda acc, tile: fold(acc, rec, steps, ctrls, failed, first, tile), accs, tiles))
             cols = list(tail.map(lambda acc: stats.finalize(acc, self.cfg), accs))
-        return {k: np.concatenate([c[k] for c in cols]) for k in cols[0]}
+        out = {k: np.concatenate([c[k] for c in cols]) for k in cols[0]}
+        out["solver_limit_share"] = at_limit / self.cfg.n_steps
+        return out

@@ -1,0 +1,118 @@
+"""The `warp` engine: MJX's Warp implementation (MuJoCo Warp, vendored in mujoco-mjx), float32.
+
+The same `jit(vmap(rollout))` as the `mjx` engine, with the statistics in the scan's
+carry: MJX hands the vmapped step to MuJoCo Warp as one batch of worlds, and the
+batched model fields (`batch.mjx_model(..., 'warp')`) as per-world fields. It
+collides every geom pair MuJoCo C does (cylinder wheels on boxes included).
+
+- Solver health is data, not output: Warp's overflow and iteration-limit messages are
+  off, and the column `solver_limit_share` gives each variant's share of steps whose
+  solve stopped on `opt.iterations` rather than on the tolerance.
+- Contact buffers are sized per world (`contacts_per_world`); a world that runs out of
+  them (a vehicle on its back) is reported `diverged`.
+- One device: MuJoCo Warp's JAX call has no sharding rule (under `shard_map` over two
+  GPUs the process died), so a host with several GPUs runs one process per GPU
+  (`CUDA_VISIBLE_DEVICES`).
+- On the CPU it runs too (slowly): that is how CI checks it against MuJoCo C. Warp compiles
+  its kernels once per machine (about 30 s on 2 cores, kept in Warp's kernel cache).
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator
+
+import jax
+import mujoco
+import numpy as np
+
+from batchveh.batch import VariantBatch, import_mjx
+from batchveh.config import ConfigError
+from batchveh.engines.mjx import MjxEngine
+from batchveh.rollout import mjx_stats
+from batchveh.vehicle import layout
+
+# contacts a world may hold: 2 per cylinder wheel (MuJoCo Warp), 1 per sphere wheel, and room for a
+# chassis and hubs that touch the ground on a flipped vehicle
+CONTACTS_PER_WORLD = 24
+
+
+def warp_installed() -> bool:
+    """Whether MJX can use its Warp implementation (warp-lang importable)."""
+    try:
+        import warp  # noqa: F401
+    except (ImportError, RuntimeError):
+        return False
+    return True
+
+
+@contextlib.contextmanager
+def quiet_warp() -> Iterator[None]:
+    """Warp's own messages off (initialisation, kernel loading, "no CUDA driver" on a CPU machine), and
+    restored afterwards; errors still show."""
+    import warp
+
+    before = warp.config.log_level
+    warp.config.log_level = warp.LOG_ERROR
+    try:
+        yield
+    finally:
+        warp.config.log_level = before
+
+
+def constraint_rows(m: mujoco.MjModel, contacts: int) -> int:
+    """Constraint rows a world may need: friction-loss dofs, limits, equality rows and `contacts`
+    contacts at the model's largest condim (pyramidal: 2 (condim - 1) rows; elliptic: condim)."""
+    condim = int(m.geom_condim.max())
+    per_contact = condim if m.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC else max(1, 2 * (condim - 1))
+    limits = int(np.count_nonzero(m.jnt_limited)) * 2
+    return int(np.count_nonzero(m.dof_frictionloss)) + limits + 6 * m.neq + contacts * per_contact
+
+
+class WarpEngine(MjxEngine):
+    """MJX's Warp implementation on the first JAX device (a CUDA GPU, or the CPU), float32."""
+
+    name = "warp"
+    impl = "warp"
+    solver_impl = "warp"  # MuJoCo Warp's solver
+
+    def __init__(self, scenario, cfg, chunk_size: int, precision: str = "f32", contacts_per_world: int = 0):
+        if precision != "f32":
+            raise ConfigError(
+                f"precision {precision!r} is not available on the warp backend (MuJoCo Warp computes in float32); "
+                "allowed: f32, or the mjx or mujoco backend for f64"
+            )
+        if not warp_installed():
+            raise ConfigError(
+                "the warp backend needs warp-lang 1.18.0; allowed: pip install -e '.[gpu]' (or warp-lang==1.18.0), "
+                "or the mjx or mujoco backend"
+            )
+        super().__init__(scenario, cfg, chunk_size, precision="f32")
+        self.devices = self.devices[:1]
+        self.chunk_size = chunk_size
+        self.contacts_per_world = contacts_per_world or CONTACTS_PER_WORLD
+
+    @property
+    def implementation(self) -> str:
+        import warp
+
+        return f"MuJoCo MJX {mujoco.__version__}, Warp implementation (MuJoCo Warp), warp-lang {warp.__version__}"
+
+    def _call_context(self):
+        return quiet_warp()
+
+    def _program(self, batch: VariantBatch, mx, axes):
+        mjx = import_mjx()
+        lay = layout(batch.model)
+        data = mjx.make_data(
+            batch.model,
+            impl="warp",
+            naconmax=batch.n * self.contacts_per_world,
+            njmax=constraint_rows(batch.model, self.contacts_per_world),
+        )
+
+        def one(m, p):
+            cols = mjx_stats(m, p, scenario=self.scenario, cfg=self.cfg, lay=lay, data=data)
+            return cols
+
+        return jax.vmap(one, in_axes=(axes, 0))

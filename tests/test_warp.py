@@ -1,0 +1,157 @@
+"""The warp engine (MJX's Warp implementation, float32) against MuJoCo C, on the CPU.
+
+MuJoCo Warp runs on the CPU too, slowly (about 4e3 variant-steps/s on 2 cores): tiny sweeps
+are enough to show that it steps the same physics. Its kernels compile once per machine
+(about 30 s on 2 cores; Warp keeps them in its kernel cache).
+
+Tolerances (measured on 2 CPU cores, straight line, 2 s after the settle, ramp 0.5 s; the
+measured value is next to each):
+"""
+
+import json
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+from conftest import slope_torque
+
+from batchveh import stats
+from batchveh.batch import apply_solver, make_batch
+from batchveh.config import ConfigError
+from batchveh.engines import make_engine
+from batchveh.engines.mujoco import MujocoEngine
+from batchveh.engines.warp import WarpEngine
+from batchveh.results import load
+from batchveh.scenarios import make_scenario
+from batchveh.vehicle import MOTORS
+
+# four-wheel sums, warp float32 vs MuJoCo C float64: measured 1.2e-6 (slope x friction) and 2.0e-6
+# (payload x wheel radius)
+SUM_RTOL = 2e-5
+SUM_ATOL = 1e-4  # N m, where the sum is about 0 (flat ground): measured 3.3e-6
+# per-wheel means, RMS and peaks: measured 0.033 N m (slope x friction) and 0.048 N m (payload x
+# radius, a peak_lp); the wheels' split is float32's to choose (four locked wheels), the sums are not
+WHEEL_ATOL = 0.15  # N m
+SLIP_ATOL = 5e-5  # slip ratio: measured 4.4e-6
+SPEED_ATOL = 1e-5  # m/s, mean forward speed: measured 1.1e-6
+SLOPE_RTOL = 1e-3  # four-wheel mean vs m g sin(s) r, as for MuJoCo C (tests/test_physics.py)
+STAT_SUFFIXES = ("_mean", "_rms", "_peak", "_peak_lp", "_peak_all", "_peak_lp_all")
+
+
+def _scenario():
+    return make_scenario("straight_line", total_time=2.0, ramp_time=0.5)
+
+
+def _cfg(sc):
+    return stats.StatsConfig.for_scenario(sc)
+
+
+def _run_both(vehicle, table, solver=None):
+    sc = _scenario()
+    out = []
+    for engine in (WarpEngine(sc, _cfg(sc), 4), MujocoEngine(sc, _cfg(sc), 4)):
+        batch = make_batch(vehicle, sc, table)
+        if solver:
+            apply_solver(batch.model, solver)
+        out.append(engine.run(batch))
+    return out
+
+
+def _assert_same_physics(w, c):
+    np.testing.assert_array_equal(w["status_code"], c["status_code"])
+    np.testing.assert_allclose(w["drive_sum_mean"], c["drive_sum_mean"], rtol=SUM_RTOL, atol=SUM_ATOL)
+    for m in MOTORS:
+        for s in STAT_SUFFIXES:
+            np.testing.assert_allclose(w[m + s], c[m + s], atol=WHEEL_ATOL, err_msg=m + s)
+    np.testing.assert_allclose(w["slip_ratio"], c["slip_ratio"], atol=SLIP_ATOL)
+    np.testing.assert_allclose(w["mean_speed"], c["mean_speed"], atol=SPEED_ATOL)
+
+
+@pytest.fixture(scope="module")
+def slope_friction(vehicle):
+    table = {"slope_deg": np.array([0.0, 10.0, 10.0, 20.0]), "friction": np.array([0.9, 0.9, 0.4, 0.9])}
+    return table, _run_both(vehicle, table)
+
+
+def test_warp_matches_mujoco_c_over_slope_and_friction(vehicle, slope_friction):
+    table, (w, c) = slope_friction
+    _assert_same_physics(w, c)
+    assert np.all(w["status_code"] == 0)
+    np.testing.assert_allclose(
+        w["drive_sum_mean"][1:], [slope_torque(vehicle, s) for s in table["slope_deg"][1:]], rtol=SLOPE_RTOL
+    )
+
+
+def test_warp_mass_and_geometry_variants_match_mujoco_c(vehicle):
+    """Payload and wheel radius: every derived constant (inertia, invweight0, acc0, bounding radii,
+    geom_aabb in Warp's own shape) comes from MuJoCo's compile of each combination."""
+    table = {
+        "payload.mass": np.array([0.0, 40.0, 0.0, 40.0]),
+        "wheel.radius": np.array([0.15, 0.15, 0.25, 0.25]),
+        "slope_deg": np.full(4, 10.0),
+    }
+    w, c = _run_both(vehicle, table)
+    _assert_same_physics(w, c)
+    # the variants differ as physics says: the sum scales with (m_vehicle + payload) r
+    mass = vehicle.total_mass + table["payload.mass"]
+    np.testing.assert_allclose(
+        w["drive_sum_mean"], mass * 9.81 * np.sin(np.deg2rad(10)) * table["wheel.radius"], rtol=SLOPE_RTOL
+    )
+
+
+def test_solver_health_is_a_column(vehicle, slope_friction):
+    """solver_limit_share: 0 where MuJoCo Warp's Newton solve converges (the default 100 iterations),
+    1 when one iteration is allowed; and no message reaches stdout either way."""
+    _, (w, c) = slope_friction
+    assert np.all(w["solver_limit_share"] == 0) and np.all(c["solver_limit_share"] == 0)
+    sc = _scenario()
+    batch = make_batch(vehicle, sc, {"slope_deg": np.array([0.0, 10.0, 10.0, 20.0])})
+    apply_solver(batch.model, {"iterations": 1})
+    one = WarpEngine(sc, _cfg(sc), 4).run(batch)
+    np.testing.assert_array_equal(one["solver_limit_share"], 1.0)
+
+
+def test_warp_prints_nothing(vehicle, capfd):
+    """Warp's kernel-loading lines and MuJoCo Warp's iteration-limit messages stay off stdout."""
+    sc = _scenario()
+    batch = make_batch(vehicle, sc, {"slope_deg": np.array([5.0, 15.0])})
+    apply_solver(batch.model, {"iterations": 2})
+    res = WarpEngine(sc, _cfg(sc), 2).run(batch)
+    # the limit was hit (measured on 32% and 42% of the steps), so a message would have shown
+    assert res["solver_limit_share"].min() > 0.1
+    out = capfd.readouterr().out
+    assert out == "", out[:500]
+
+
+def test_warp_refuses_float64(vehicle):
+    sc = _scenario()
+    with pytest.raises(ConfigError, match="float32"):
+        make_engine("warp", sc, _cfg(sc), 4, precision="f64")
+
+
+def test_sweep_on_warp_records_its_implementation(tmp_path, capsys):
+    """The CLI on --backend warp: rows as on MuJoCo C, and the manifest and each part's metadata name
+    the backend, implementation and solver settings."""
+    from batchveh.sweep import main
+
+    spec = tmp_path / "s.yaml"
+    spec.write_text(
+        "name: w\nscenario: straight_line\nfixed: {total_time: 1.0, ramp_time: 0.5}\n"
+        "sweep: {method: grid, params: {slope_deg: [0, 12]}}\n"
+    )
+    outs = {}
+    for backend in ("warp", "mujoco"):
+        out = tmp_path / backend
+        assert main([str(spec), "--backend", backend, "--out", str(out), "--quiet"]) == 0
+        outs[backend] = out
+    manifest = json.loads((outs["warp"] / "manifest.json").read_text())
+    assert manifest["backend"] == "warp" and "Warp implementation" in manifest["implementation"]
+    assert manifest["solver"]["solver"] == "newton" and manifest["solver"]["cone"] == "elliptic"
+    part = sorted(outs["warp"].glob("part-*.parquet"))[0]
+    meta = json.loads(pq.read_schema(part).metadata[b"batchveh"])
+    assert meta["implementation"] == manifest["implementation"] and meta["solver"] == manifest["solver"]
+    field = pq.read_schema(part).field("solver_limit_share")
+    assert field.metadata[b"unit"] == b"1"
+    w, c = (load(outs[b]) for b in ("warp", "mujoco"))
+    assert list(w["status"]) == list(c["status"]) == ["ok", "ok"]
+    np.testing.assert_allclose(w["drive_sum_mean"], c["drive_sum_mean"], rtol=SUM_RTOL, atol=SUM_ATOL)
