@@ -33,12 +33,12 @@ from batchveh.spec import MAX_VARIANTS, SweepSpec, load_spec
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_INTERRUPTED = 0, 2, 3, 130
 TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match it
 
-# Rough rates in variant-steps/s for the dry run's estimate, measured (benchmarks/RESULTS.md):
-# MuJoCo C 9.4e4 on 2 threads with the default elliptic contact (the main job); MJX on the CPU
-# 1.0e4 on 2 cores; MJX on one H200 1.3e6 (elliptic contact, float32, Newton 8); the warp
-# engine 4.5e3 on 2 CPU cores (256 variants) and, on one H200, the rate in RATE_PER_GPU
-RATE_PER_CPU = {"mujoco": 4.7e4, "mjx": 5.0e3, "warp": 2.2e3}  # per MuJoCo thread or CPU core
-RATE_PER_GPU = {"mjx": 1.3e6, "warp": 1.0e7}
+# Rough rates in variant-steps/s for the dry run's estimate, measured with the default (elliptic)
+# contact (benchmarks/RESULTS.md): MuJoCo C 7.8e4 on 2 threads (the main job on a fresh clone);
+# MJX on the CPU 1.0e4 on 2 cores; the warp engine 4.5e3 on 2 CPU cores (256 variants); on one
+# H200, MJX (JAX implementation) 1.4e6 and the warp engine 4.98e6 (h200-warp-elliptic10.json)
+RATE_PER_CPU = {"mujoco": 3.9e4, "mjx": 5.0e3, "warp": 2.2e3}  # per MuJoCo thread or CPU core
+RATE_PER_GPU = {"mjx": 1.4e6, "warp": 5.0e6}
 COMPILE_S = {"mujoco": 2.0, "mjx-cpu": 60.0, "mjx-gpu": 15.0, "warp-cpu": 40.0, "warp-gpu": 60.0}
 
 
