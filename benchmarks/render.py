@@ -157,7 +157,7 @@ def main():
         "",
     ]
     for f in sorted((HERE / "results").glob("*.json")):
-        if any(k in f.name for k in ("scaling", "stages", "profile", "overhead", "mainjob", "contact-cost")):
+        if any(k in f.name for k in ("scaling", "stages", "profile", "overhead", "mainjob", "contact-cost", "largest")):
             continue
         d = json.loads(f.read_text())
         out += [bench_table(d), ""]
@@ -226,6 +226,16 @@ def main():
             load = " / ".join(f"{x:.1f}" for x in r["load_average_before_after"])
             out.append(f"| {i + 1} | {r['wall_s']:.1f} | {load} | {' '.join(r['summary'])[:200]} |")
         out.append("")
+    for f in sorted((HERE / "results").glob("*largest*.json")):
+        d = json.loads(f.read_text())
+        out += [f"## The largest warp batch: {d['info']['device']}", "", f"Command: `{d['info']['command']}`", ""]
+        out += ["| variants | variant-steps/s | peak GB | result |", "| ---: | ---: | ---: | --- |"]
+        for r in d["rows"]:
+            if "error" in r:
+                out.append(f"| {r['variants']:,} | - | - | {r['error'][:80]} |")
+            else:
+                out.append(f"| {r['variants']:,} | {r['rate']:.3g} | {r['peak_mem_gb']:.1f} | ok |")
+        out += ["", f"(raw data: `benchmarks/results/{f.name}`)", ""]
     scaling = sorted((HERE / "results").glob("*scaling*.json"))
     if scaling:
         out += [
