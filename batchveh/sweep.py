@@ -128,7 +128,6 @@ def run_sweep(
         "chunk_size": chunk,
         "backend": backend,
         "precision": spec.precision,
-        "solver_impl": engine.solver_impl,
         "table_version": TABLE_VERSION,
         "settle_time": spec.scenario.settle_time,  # the default may change: a resume must match it
     }
@@ -142,7 +141,6 @@ def run_sweep(
         "versions": _versions(),
         "device": _device(backend),
         "backend": backend,
-        "solver_impl": engine.solver_impl,
         **engine_meta,
         "precision": spec.precision,
         "window_s": [cfg.window_start, cfg.window_end],

@@ -2,15 +2,15 @@
 
 An engine is built for one scenario and reduction (`stats.StatsConfig`) and has
 `run(batch: VariantBatch) -> dict[str, (n,) array]`: the statistics columns of
-`stats.finalize`, the same for every engine. It also tells its `name`,
-`solver_impl`, `chunk_size`, `compiles` and `compile_s`.
+`stats.finalize`, the same for every engine. It also tells its `name`, `implementation`,
+`chunk_size`, `compiles` and `compile_s`.
 
 - `mujoco` (engines/mujoco.py): MuJoCo C through mujoco.batch, on the CPU; the reference.
 - `mjx` (engines/mjx.py): MuJoCo MJX, JAX implementation, on JAX's devices.
 - `warp` (engines/warp.py): MuJoCo MJX, Warp implementation (MuJoCo Warp), float32, on one
   CUDA GPU or the CPU.
 
-Each also tells its `implementation`: a line for the manifest and the Parquet metadata.
+`implementation` is a line for the manifest and the Parquet metadata.
 """
 
 from __future__ import annotations

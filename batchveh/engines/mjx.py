@@ -35,7 +35,6 @@ class MjxEngine:
 
     name = "mjx"
     impl = "jax"  # MJX's implementation (mjx.put_model's impl)
-    solver_impl = "mjx"  # whose solver code runs: MJX's own
 
     def __init__(
         self,

@@ -72,7 +72,6 @@ class MujocoEngine:
     """MuJoCo C through mujoco.batch.Batch on the CPU threads (float64)."""
 
     name = "mujoco"
-    solver_impl = "mujoco"  # MuJoCo C's own solver
     implementation = f"MuJoCo C {mujoco.__version__} through mujoco.batch, float64"
     compile_s = 0.0
     compiles = 0

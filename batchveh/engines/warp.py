@@ -19,9 +19,6 @@ collides every geom pair MuJoCo C does (cylinder wheels on boxes included).
 
 from __future__ import annotations
 
-import contextlib
-from collections.abc import Iterator
-
 import jax
 import mujoco
 import numpy as np
@@ -46,20 +43,6 @@ def warp_installed() -> bool:
     return True
 
 
-@contextlib.contextmanager
-def quiet_warp() -> Iterator[None]:
-    """Warp's own messages off (initialisation, kernel loading, "no CUDA driver" on a CPU machine), and
-    restored afterwards; errors still show."""
-    import warp
-
-    before = warp.config.log_level
-    warp.config.log_level = warp.LOG_ERROR
-    try:
-        yield
-    finally:
-        warp.config.log_level = before
-
-
 def constraint_rows(m: mujoco.MjModel, contacts: int) -> int:
     """Constraint rows a world may need: friction-loss dofs, limits, equality rows and `contacts`
     contacts at the model's largest condim (pyramidal: 2 (condim - 1) rows; elliptic: condim)."""
@@ -74,7 +57,6 @@ class WarpEngine(MjxEngine):
 
     name = "warp"
     impl = "warp"
-    solver_impl = "warp"  # MuJoCo Warp's solver
 
     def __init__(self, scenario, cfg, chunk_size: int, precision: str = "f32", contacts_per_world: int = 0):
         if precision != "f32":
@@ -99,7 +81,11 @@ class WarpEngine(MjxEngine):
         return f"MuJoCo MJX {mujoco.__version__}, Warp implementation (MuJoCo Warp), warp-lang {warp.__version__}"
 
     def _call_context(self):
-        return quiet_warp()
+        """Warp's own messages (initialisation, kernel loading) off, errors still shown: Warp's
+        scoped log level, restored when the chunk is done."""
+        import warp
+
+        return warp.ScopedLogLevel(warp.LOG_ERROR)
 
     def _program(self, batch: VariantBatch, mx, axes):
         mjx = import_mjx()
@@ -111,8 +97,5 @@ class WarpEngine(MjxEngine):
             njmax=constraint_rows(batch.model, self.contacts_per_world),
         )
 
-        def one(m, p):
-            cols = mjx_stats(m, p, scenario=self.scenario, cfg=self.cfg, lay=lay, data=data)
-            return cols
-
+        one = lambda m, p: mjx_stats(m, p, scenario=self.scenario, cfg=self.cfg, lay=lay, data=data)  # noqa: E731
         return jax.vmap(one, in_axes=(axes, 0))
