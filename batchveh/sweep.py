@@ -113,14 +113,12 @@ def run_sweep(
     table = spec.table()
     backend = resolve_backend(backend or spec.backend)
     cfg = spec.stats_config()
-    engine = make_engine(
-        backend,
-        spec.scenario,
-        cfg,
-        chunk_size or spec.chunk_size,
-        n_variants=n,
-        precision=spec.precision,
-    )
+    try:
+        engine = make_engine(
+            backend, spec.scenario, cfg, chunk_size or spec.chunk_size, n_variants=n, precision=spec.precision
+        )
+    except ConfigError as err:  # a setting the backend cannot run: name the file
+        raise ConfigError(f"{spec.where}: {err}") from None
     chunk = engine.chunk_size
     manifest = {
         "spec": spec.raw,

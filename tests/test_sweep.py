@@ -204,6 +204,7 @@ def test_resume_after_kill_equals_uninterrupted(tmp_path):
         ({"solver": {"iterations": 0}}, ["solver.iterations", "0", "integer >= 1"]),
         ({"solver": {"type": "pgs"}}, ["solver.type", "'pgs'", "newton, cg"]),
         ({"solver": {"impl": "fused"}}, ["solver", "impl", "allowed keys"]),
+        ({"backend": "warp", "precision": "f64"}, ["precision: 'f64'", "warp backend", "allowed: f32"]),
     ],
 )
 def test_bad_spec_one_line(tmp_path, capsys, edit, expect):

@@ -61,7 +61,7 @@ class WarpEngine(MjxEngine):
     def __init__(self, scenario, cfg, chunk_size: int, precision: str = "f32", contacts_per_world: int = 0):
         if precision != "f32":
             raise ConfigError(
-                f"precision {precision!r} is not available on the warp backend (MuJoCo Warp computes in float32); "
+                f"precision: {precision!r} is not available on the warp backend (MuJoCo Warp computes in float32); "
                 "allowed: f32, or the mjx or mujoco backend for f64"
             )
         if not warp_installed():
