@@ -153,7 +153,7 @@ def run_sweep(
         note(
             "MJX in float32 with the elliptic friction cone: four-wheel sums hold (1e-4), per-wheel "
             "torques drift by 6% (median) on a GPU; for per-wheel values give precision: f64, or the "
-            "fast contact preset vehicle.contact_model {cone: pyramidal, impratio: 1} (README, Speed)"
+            "fast contact preset vehicle.contact_model {cone: pyramidal, impratio: 1, impedance: 0.9} (README, Speed)"
         )
     with folder.lock():
         done, bad = folder.open(manifest, resume=resume, overwrite=overwrite)

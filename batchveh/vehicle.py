@@ -109,22 +109,29 @@ class Motors:
 
 @dataclass(frozen=True)
 class ContactModel:
-    """How MuJoCo's soft friction approaches Coulomb friction (validation/DRAG.md).
+    """How MuJoCo's soft friction approaches Coulomb friction (validation/DRAG.md, SCRUB.md).
 
     MuJoCo's friction is a soft constraint: below a saturation slip speed it acts as a
     viscous damper. With its defaults (pyramidal cone, impratio 1) a seed wheel sliding at
-    3 mm/s feels 0.27 mu N. With an elliptic cone and impratio 10 (default) it feels mu N
-    from 1 mm/s up (0.54-1.0 at 0.3 mm/s; tests/test_contact.py), in every slip direction,
-    at no extra solver cost on MuJoCo C. impratio 30 and 100 also meet that target, but on
-    the vehicle their stiffer friction made the split between four wheels locked to one
-    speed unstable: left and right 0.16 N m apart on a straight 15 deg climb (30), MJX and C
-    0.5 N m apart per wheel (100); at 10 both stay mirror-symmetric to 1e-12 N m and the
-    engines agree to 2e-4 N m per step. 'pyramidal' meets mu N along the cone's axes only
-    (0.71 mu N against a diagonal slip); it is the fast preset: 1.29e7 variant-steps/s on the warp
-    engine against 4.98e6 elliptic (one H200, benchmarks/results/h200-warp-*.json)."""
+    3 mm/s feels 0.27 mu N. The default here, an elliptic cone, impratio 100 and a soft
+    impedance d = 0.25 (MuJoCo's solimp is 0.9), gives mu N from 1 mm/s up in every slip
+    direction, and lets each edge of a scrubbing wheel's contact slide like Coulomb's: in the
+    seed's scenario 2 the drive torque is 0.997 mu N r and the steering torque 1.088 mu N offset
+    (the outer edge carries 60% of the load). With d = 0.9 the solver pushed the inner edge along
+    its slip: 0.32 mu N r and 0.76 mu N offset. The price of the soft impedance: the wheels
+    sink 1.5 mm, so a climb's four-wheel sum is 0.3% below m g sin(s) r, and turns creep 2%
+    (tests/test_physics.py). On the warp engine it is 1.34x faster than d = 0.9 (6.74e6
+    against 5.03e6 variant-steps/s, one H200). 'pyramidal' with impratio 1 is the fast preset
+    (0.71 mu N against a diagonal slip)."""
 
     cone: Literal["elliptic", "pyramidal"] = "elliptic"
-    impratio: float = field(10.0, unit="1", ge=1, le=1e4, doc="frictional-to-normal impedance ratio", sweep=False)
+    impratio: float = field(100.0, unit="1", ge=1, le=1e4, doc="frictional-to-normal impedance ratio", sweep=False)
+    impedance: float = field(
+        0.25, unit="1", gt=0, le=0.999, doc="contact impedance d (MuJoCo solimp d0 = dwidth)", sweep=False
+    )
+    time_constant: float = field(
+        0.02, unit="s", gt=0, doc="contact time constant (MuJoCo solref, damping ratio 1)", sweep=False
+    )
 
 
 @dataclass(frozen=True)
@@ -198,6 +205,14 @@ def rolling_resistance_torque(c_rr, radius, total_mass, g_normal):
     exact on steady ground; the split ignores load transfer (README, "What the model leaves
     out"). Works on floats and arrays alike."""
     return c_rr * radius * total_mass * g_normal / 4
+
+
+def contact_time_constant(cm: ContactModel, time_step: float) -> float:
+    """The contact time constant the model gets, s: `cm.time_constant`, at least 4 time steps.
+
+    MuJoCo itself raises it to 2 time steps; with the soft default impedance (0.25) that is not
+    enough: a 1 s straight run at dt 20 ms flips the vehicle with 2 steps and runs with 4."""
+    return max(cm.time_constant, 4 * time_step)
 
 
 def _fmt(*xs: float) -> str:
@@ -288,6 +303,8 @@ def mjcf(
   <worldbody>
     <light pos="0 0 6" dir="0 0 -1" directional="true"/>
     <geom name="{GROUND}" type="plane" size="0 0 1" priority="1" friction="{friction:.10g} 0 0"
+          solimp="{v.contact_model.impedance:.10g} {v.contact_model.impedance:.10g} 0.001 0.5 2"
+          solref="{contact_time_constant(v.contact_model, time_step):.10g} 1"
           contype="2" conaffinity="1" material="grid"/>
     <body name="chassis" pos="{_fmt(c.x_cg, c.y_cg, c.z_cg)}">
       <freejoint name="chassis"/>

@@ -5,6 +5,11 @@ import pytest
 
 from batchveh.vehicle import Vehicle
 
+# The four-wheel drive sum on a steady climb against m g sin(s) r: the soft contact sinks 1.5 mm,
+# so the lever arm is about r - 0.75 mm (tests/test_physics.py); measured -2.8e-3 to -3.9e-3 on
+# MuJoCo C, MJX and warp alike. The issue's bound is 1%.
+SLOPE_SUM_RTOL = 5e-3
+
 
 def slope_torque(vehicle: Vehicle, slope_deg: float, g: float = 9.81) -> float:
     """Quasi-static four-wheel drive-torque sum on a slope: m g sin(slope) r, N m."""

@@ -33,7 +33,8 @@ def rig(mu: float) -> mujoco.MjModel:
     xml = f"""<mujoco>
       <option timestep="0.005" integrator="implicitfast" cone="{cm.cone}" impratio="{cm.impratio}"/>
       <worldbody>
-        <geom name="ground" type="plane" size="0 0 1" priority="1" friction="{mu} 0 0"/>
+        <geom name="ground" type="plane" size="0 0 1" priority="1" friction="{mu} 0 0"
+              solimp="{cm.impedance} {cm.impedance} 0.001 0.5 2" solref="{cm.time_constant} 1"/>
         <body name="wheel" pos="0 0 {w.radius}">
           <joint name="x" type="slide" axis="1 0 0" armature="{RIG_ARMATURE}"/>
           <joint name="z" type="slide" axis="0 0 1"/>

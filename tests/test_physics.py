@@ -4,17 +4,20 @@ Every tolerance below was set from a measured error (the value after "measured",
 this seed vehicle, the default laws: a 0.5 s settle, then smooth_step drive ramps) and a physical
 error budget, as a small multiple of the measured error. Times are law times (from the settle's end).
 The main budget is contact penetration: MuJoCo's soft contacts let the wheels sink by
-delta = 175 um = 9e-4 r (measured, chassis height) and put the contact point midway through
-the overlap, so the lever arm from the contact to the axle is r - delta / 2 = r (1 - 4.5e-4):
-the drive torques come out ~4e-4 below m g sin(s) r, and a free wheel spins ~4.5e-4 faster
-than v / r. The deficit grows with the normal load (heavier vehicle, sphere contact).
+delta = 1.5 mm = 7.7e-3 r (measured, mean contact depth on a 10 deg climb: the soft impedance
+0.25 that makes a scrubbing wheel slide like Coulomb's, validation/SCRUB.md; it was 175 um with
+MuJoCo's 0.9) and put the contact point midway through the overlap, so the lever arm from the
+contact to the axle is about r - delta / 2 = r (1 - 3.9e-3): the drive torques come out 3e-3 to
+4e-3 below m g sin(s) r (conftest.SLOPE_SUM_RTOL), and a free wheel spins ~4.5e-3 faster than
+v / r. The deficit grows with the normal load (heavier vehicle, sphere contact). The soft contact
+also creeps more in a turn (PIVOT_YAW_RTOL).
 """
 
 import dataclasses
 
 import numpy as np
 import pytest
-from conftest import slope_torque
+from conftest import SLOPE_SUM_RTOL, slope_torque
 
 from batchveh.motors import WHEELS
 from batchveh.run import simulate
@@ -24,39 +27,41 @@ from batchveh.vehicle import build_model
 CORNERS = ("lf", "rf", "lr", "rr")
 
 # four-wheel sum of the steady mean drive torques against m g sin(s) r, relative
-SUM_RTOL = 1e-3  # measured -4.1e-4 .. +1.5e-4 at 5..20 deg, +3.6e-4 at 25 deg mu 0.7 (penetration, above)
-SUM_RTOL_HEAVY = 1e-3  # 194.8 kg at 10 deg: measured -2.0e-4 (more load, deeper penetration)
-SUM_RTOL_SPHERE = 2e-3  # one contact per wheel sinks deeper: measured -6.9e-4 at 15 deg
+SUM_RTOL = SLOPE_SUM_RTOL  # measured -3.9e-3 .. -2.8e-3 at 5..20 deg, -3.1e-3 at 25 deg mu 0.7 (penetration, above)
+SUM_RTOL_HEAVY = 6e-3  # 194.8 kg at 10 deg: measured -4.5e-3 (more load, deeper penetration)
+SUM_RTOL_SPHERE = 8e-3  # one contact per wheel sinks deeper: measured -6.6e-3 at 15 deg
 SUM_ATOL_FLAT = 1e-5  # N m at 0 deg, where the closed form is 0: measured 2.4e-6 (4x: round-off scale)
 MIRROR_ATOL = 3e-9  # N m, left vs right wheel on a straight line (mirror symmetry): measured up to 2.9e-12
 # steady tracking on a 20 deg slope at mu 0.9, straight line (window 2..4 s after a 1 s ramp)
-SPEED_TRACK_RTOL = 2e-4  # mean wheel-speed error, relative: measured 6.7e-5 (elliptic, impratio 10: the stiffer
-# friction holds the rim against the servo; 6.7e-7 with MuJoCo's default contact)
+SPEED_TRACK_RTOL = 1e-3  # mean wheel-speed error, relative: measured 4.1e-4 (6.7e-5 with impedance 0.9 and
+# impratio 10, 6.7e-7 with MuJoCo's default contact: the softer contact lets the rim creep against the servo)
 STEER_TRACK_DEG = 0.1  # steering angle under the slope's aligning load: measured 0.042 deg
 # pivot on the same slope: its window (2.5..5 s) holds the drive ramp (2..4 s), so the servo lags
 PIVOT_SPEED_TRACK_RTOL = 5e-3  # measured 7.3e-4
 PIVOT_STEER_TRACK_DEG = 0.25  # measured 0.073 deg
 STEER_END_DEG = 0.05  # seed scenario 2's final steering angles: measured 0.029 deg
 DT_HALVING_RTOL = 1e-5  # the steady mean is a quasi-static force balance; measured 5.0e-7 (the issue allows 0.5%)
-FREE_WHEEL_RTOL = 1e-3  # towing wheel speed vs v_forward / r: measured +6.2e-4 (penetration, above)
+FREE_WHEEL_RTOL = 6e-3  # towing wheel speed vs v_forward / r: measured +4.5e-3 (penetration, above)
 # sliding (tan s > mu): the chassis accelerates down the slope at g (mu cos s - sin s), a momentum
-# balance over the window: measured +0.14% (20 deg), -0.88% (25 deg). The wheels chatter, so the
-# window's value depends on how the run started: at 25 deg it was -2.1% to +0.74% over the settle
-# (0 or 0.5 s) and the drive law (ramp or smooth_step), +0.14% to +0.38% at 20 deg
-SLIDING_ACCEL_RTOL = 0.01
+# balance over the window: measured +2.6% at 25 deg (the sliding wheels feel 0.985 mu N on average;
+# the drag bound is 0.95). With impedance 0.9 it was +0.14% (20 deg), -0.88% (25 deg), and the wheels
+# chattered, so the window's value depended on how the run started (-2.1% to +0.74% at 25 deg)
+SLIDING_ACCEL_RTOL = 0.04
 # the drive sum of sliding wheels is mu N r on average, but the wheels chatter (the sum's std is
 # ~2x its mean), so its 2 s window mean scatters: measured +0.67% (20 deg), +0.33% (25 deg); over
 # the settle and drive law above, -0.6% to +1.7% (20 deg) and -4.1% to +4.6% (25 deg)
-SLIDING_SUM_RTOL = 0.05
+# With impedance 0.25: +6.2% at 25 deg, while the chassis' deceleration says 0.985 mu N; the excess
+# over the ground's friction torque is not isolated (README, "Contact model limits")
+SLIDING_SUM_RTOL = 0.08
 # turns: yaw rates over the steady part against their closed forms. Soft contacts creep
 # (README: 1 to 2 %), so the vehicle turns slightly slower and wider than the rigid kinematics.
-PIVOT_YAW_RTOL = 0.01  # measured -0.27%
+PIVOT_YAW_RTOL = 0.03  # measured -1.98% (-0.27% with MuJoCo's impedance 0.9: the soft contact creeps more)
 ACKERMANN_YAW_RTOL = 0.015  # measured -0.52% (R 3 m, 2 km/h), -0.45% (R -5 m, 4 km/h)
 ACKERMANN_RADIUS_RTOL = 0.015  # path radius of the chassis origin: measured +0.33%, +0.46%
 # travel direction relative to the mean heading: measured 4.9e-3 deg (1.5e-3 without the settle): the
 # heading still creeps, 2.7e-3 deg over the window
-CRAB_ANGLE_DEG = 0.01
-CRAB_SPEED_RTOL = 1e-3  # chassis speed vs the rim speed: measured -6.0e-4 (penetration)
+CRAB_ANGLE_DEG = 0.03  # measured 1.8e-2 deg since the soft impedance (validation/SCRUB.md)
+CRAB_SPEED_RTOL = 6e-3  # chassis speed vs the rim speed: measured -4.3e-3 (penetration)
 SYMMETRY_ATOL_M = 1e-6  # m, pivot centre drift; zero by symmetry, measured 1.9e-14 (solver round-off)
 RAMP_ACCEL_RTOL = 5e-3  # chassis acceleration over a linear drive ramp vs 1 m/s^2: measured -7.3e-4
 STEADY_ACCEL_ATOL = 2e-8  # m/s^2 after the ramp: measured 1.7e-9 (1.6e-9 after a linear ramp)
@@ -341,11 +346,11 @@ def test_sphere_wheel_contacts_keep_the_slope_physics(vehicle):
 
 # During a linear ramp the drive motors also accelerate the vehicle and the wheels' spin: the sum is
 # r m (g sin s + a) + 4 (I_wheel + armature) a / r (57.41 N m at 10 deg, 1 km/h in 1 s). Measured
-# on the mid-ramp window 0.3-0.7 s: -6.6e-4 at dt 5 ms, -4.1e-4 at 2.5 ms (contact lever arm, as
-# for SUM_RTOL). Reading qfrc_actuator as it is gave +25% at 5 ms: implicitfast applies the servo
+# on the mid-ramp window 0.3-0.7 s: -4.4e-3 at both dt (contact lever arm, as for SUM_RTOL).
+# Reading qfrc_actuator as it is gave +25% at 5 ms: implicitfast applies the servo
 # damping at the end-of-step speed, so the applied torque is kv (v1 - v0) below it (3.6 N m per
 # wheel at 5 ms, halving with dt; stats.sample, validation/PEAKS.md).
-RAMP_SUM_RTOL = 2e-3
+RAMP_SUM_RTOL = 6e-3
 RAMP_DT_RTOL = 1e-3  # change of the mid-ramp sum when dt halves: measured 2.5e-4
 
 
@@ -387,10 +392,14 @@ def test_the_settle_is_left_out_of_every_statistic(vehicle):
     np.testing.assert_allclose(st["drive_lf_energy"], (ser.drive_lf * ser.omega_lf).sum() * sc.time_step, rtol=1e-12)
     np.testing.assert_allclose(st["distance"], np.hypot(ser.vx, ser.vy).sum() * sc.time_step, rtol=1e-12)
     np.testing.assert_allclose(st["max_pitch_deg"], np.rad2deg(np.abs(ser.pitch).max()), rtol=1e-12)
-    # without the settle the start-up drop onto the slope is in the unfiltered peak: 69.69 against
-    # 66.55 N m (measured); the filtered one hardly moves (66.14 against 66.15)
-    bare = simulate(vehicle, dataclasses.replace(sc, settle_time=0.0)).stats
-    assert bare["drive_sum_peak_all"] > st["drive_sum_peak_all"] + 1.0
+    # without the settle the series opens with the drop onto the contacts and the motors taking up
+    # the slope: the chassis falls at up to 36 mm/s (3.9e-8 m/s after a settle, measured) and the
+    # first drive torque is 1.6 N m (12.0 N m, the slope's share, after a settle)
+    bare = simulate(vehicle, dataclasses.replace(sc, settle_time=0.0)).series
+    head = slice(0, 40)  # the first 0.2 s
+    assert np.abs(bare.vz.iloc[head]).max() > 0.01 and np.abs(ser.vz.iloc[head]).max() < 1e-6
+    quarter = slope_torque(vehicle, 10) / 4
+    assert bare.drive_lf.iloc[0] < 0.5 * quarter < ser.drive_lf.iloc[0]
     # the same reduction in jax.numpy over the whole record, settle included: measured 2e-15 apart
     b = make_batch(vehicle, sc, {})
     params = {k: float(v[0]) for k, v in b.params.items()}
