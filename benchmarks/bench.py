@@ -49,7 +49,7 @@ SOLVERS = {  # name -> (solver, iterations, ls_iterations)
 
 
 WHEEL_COLLISION = "cylinder"  # --wheel-collision
-CONTACT = None  # --contact CONE/IMPRATIO, e.g. pyramidal/1 (default: the vehicle's own)
+CONTACT = None  # --contact CONE/IMPRATIO[/IMPEDANCE], e.g. pyramidal/1 (default: the vehicle's own)
 
 
 def slope_table(n: int, seed: int = 0):
@@ -62,8 +62,10 @@ def slope_table(n: int, seed: int = 0):
     wheel = dataclasses.replace(spec.vehicle.wheel, collision=WHEEL_COLLISION)
     vehicle = dataclasses.replace(spec.vehicle, wheel=wheel)
     if CONTACT:
-        cone, impratio = CONTACT.split("/")
+        cone, impratio, *impedance = CONTACT.split("/")
         cm = dataclasses.replace(vehicle.contact_model, cone=cone, impratio=float(impratio))
+        if impedance:
+            cm = dataclasses.replace(cm, impedance=float(impedance[0]))
         vehicle = dataclasses.replace(vehicle, contact_model=cm)
     spec = dataclasses.replace(spec, vehicle=vehicle)
     grid = variant_table(spec)
@@ -387,7 +389,11 @@ def main():
         help="JAX matmul precisions to compare for mjx (GPU float32 'default' may use TF32)",
     )
     ap.add_argument("--wheel-collision", default="cylinder", choices=["cylinder", "sphere"])
-    ap.add_argument("--contact", default=None, help="CONE/IMPRATIO, e.g. pyramidal/1 (default: the vehicle's)")
+    ap.add_argument(
+        "--contact",
+        default=None,
+        help="CONE/IMPRATIO[/IMPEDANCE], e.g. pyramidal/1 or elliptic/10/0.9 (default: the vehicle's)",
+    )
     args = ap.parse_args()
     global WHEEL_COLLISION, CONTACT
     WHEEL_COLLISION = args.wheel_collision
