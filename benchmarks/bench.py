@@ -284,6 +284,30 @@ def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="h
     return cols, t_run - be.compile_s, be.compile_s, peak
 
 
+def sized_rows(rows, label, sizes, n_steps, acc, backend, **extra):
+    """Append a row per batch size: the rate of `run_backend(kind, spec, table, size, *options)` for
+    `backend` = (kind, spec, *options) on `size` slope variants, its compile time and peak memory, the
+    accuracy `acc` measured on the reference sample, and `extra`; an error row where a size fails."""
+    kind, spec, *options = backend
+    for size in sizes:
+        _, table = slope_table(size, seed=3)
+        try:
+            _, wall, comp, peak = run_backend(kind, spec, table, size, *options)
+        except Exception as err:  # out of memory: record and go on
+            rows.append({"name": f"{label} n={size}", "error": str(err)[:200]})
+            continue
+        row = {
+            "name": f"{label} n={size}",
+            "rate": size * n_steps / wall,
+            "compile_s": comp,
+            "peak_mem_gb": peak / 1e9,
+            "accuracy": acc,
+            **extra,
+        }
+        rows.append(row)
+        print(row, flush=True)
+
+
 def warp_rows(rows, spec, ref_table, ref, solver, sizes, direct_sizes, n_steps):
     """Rows of batchveh's warp engine and of MuJoCo Warp driven directly, at each size; the
     warp engine's accuracy on the reference sample."""
@@ -295,23 +319,16 @@ def warp_rows(rows, spec, ref_table, ref, solver, sizes, direct_sizes, n_steps):
     cols_acc, *_ = run_backend("warp", spec, ref_table, len(ref_table), solver)
     acc = accuracy(cols_acc, ref)
     limit = cols_acc.get("solver_limit_share")
-    for size in sizes:
-        _, table = slope_table(size, seed=3)
-        try:
-            _, wall, comp, peak = run_backend("warp", spec, table, size, solver)
-        except Exception as err:  # out of memory: record and go on
-            rows.append({"name": f"batchveh warp {solver} f32 n={size}", "error": str(err)[:200]})
-            continue
-        row = {
-            "name": f"batchveh warp {solver} f32 n={size}",
-            "rate": size * n_steps / wall,
-            "compile_s": comp,
-            "peak_mem_gb": peak / 1e9,
-            "accuracy": acc,
-            "ref_solver_limit_share_max": None if limit is None else float(np.max(limit)),
-        }
-        rows.append(row)
-        print(row, flush=True)
+    limit_max = None if limit is None else float(np.max(limit))
+    sized_rows(
+        rows,
+        f"batchveh warp {solver} f32",
+        sizes,
+        n_steps,
+        acc,
+        ("warp", spec, solver),
+        ref_solver_limit_share_max=limit_max,
+    )
     for size in direct_sizes:
         _, table = slope_table(size, seed=3)
         cols = _cols(table, spec)
@@ -466,22 +483,7 @@ def main():
         cols_acc, *_ = run_backend("mjx", spec, ref_table, args.ref_variants, solver, x64, mm)
         acc = accuracy(cols_acc, ref)
         label = f"batchveh mjx {solver} {'f64' if x64 else 'f32'}{'' if mm == 'highest' else ' mm=' + mm}"
-        for size in args.mjx_sizes:
-            _, table = slope_table(size, seed=3)
-            try:
-                _, wall, comp, peak = run_backend("mjx", spec, table, size, solver, x64, mm)
-            except Exception as err:  # out of memory: record and go on
-                rows.append({"name": f"{label} n={size}", "error": str(err)[:200]})
-                continue
-            row = {
-                "name": f"{label} n={size}",
-                "rate": size * n_steps / wall,
-                "compile_s": comp,
-                "peak_mem_gb": peak / 1e9,
-                "accuracy": acc,
-            }
-            rows.append(row)
-            print(row, flush=True)
+        sized_rows(rows, label, args.mjx_sizes, n_steps, acc, ("mjx", spec, solver, x64, mm))
     for solver in args.warp_solvers if args.warp_sizes or args.direct_sizes else []:
         warp_rows(rows, spec, ref_table, ref, solver, args.warp_sizes, args.direct_sizes, n_steps)
     # the peer again after the GPU rows: the mean of both

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import batchveh
-from batchveh.vehicle import build_model
+from batchveh.vehicle import build_model, contact_time_constant
 
 # Targets (issue 10): >= 0.95 mu N from 3 mm/s, >= 0.8 mu N at 1 mm/s.
 # Measured with the defaults (elliptic, impratio 100): 1.00 at every speed on both engines.
@@ -34,7 +34,7 @@ def rig(mu: float) -> mujoco.MjModel:
       <option timestep="0.005" integrator="implicitfast" cone="{cm.cone}" impratio="{cm.impratio}"/>
       <worldbody>
         <geom name="ground" type="plane" size="0 0 1" priority="1" friction="{mu} 0 0"
-              solimp="{cm.impedance} {cm.impedance} 0.001 0.5 2" solref="{cm.time_constant} 1"/>
+              solimp="{cm.impedance} {cm.impedance} 0.001 0.5 2" solref="{contact_time_constant(cm, 0.005)} 1"/>
         <body name="wheel" pos="0 0 {w.radius}">
           <joint name="x" type="slide" axis="1 0 0" armature="{RIG_ARMATURE}"/>
           <joint name="z" type="slide" axis="0 0 1"/>
