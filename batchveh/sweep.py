@@ -90,7 +90,7 @@ def count_variants(spec: SweepSpec, limit: int | None = None, max_variants: int 
 def run_sweep(
     spec: SweepSpec,
     *,
-    out: Path | None = None,
+    out: str | Path | None = None,
     backend: str | None = None,
     resume: bool = False,
     overwrite: bool = False,
@@ -100,7 +100,8 @@ def run_sweep(
     progress: bool = True,
     report: Callable[[str], None] | None = None,
 ) -> dict[str, Any]:
-    """Run `spec`, writing part files under `out`; return a summary dict.
+    """Run `spec`, writing part files under `out` (a local path or a URI pyarrow.fs understands);
+    return a summary dict.
 
     Raises FileExistsError where results exist and neither resume nor overwrite is given,
     results.Locked where another sweep writes there, ConfigError for a bad spec or setting.
@@ -158,7 +159,7 @@ def run_sweep(
     with folder.lock():
         done, bad = folder.open(manifest, resume=resume, overwrite=overwrite)
         for name, why in bad.items():
-            note(f"{folder.path / name}: {why}; its chunk runs again")
+            note(f"{folder.where(name)}: {why}; its chunk runs again")
         todo = [c for c in range(n_chunks) if c not in done]
         size = {c: min(chunk, n - c * chunk) for c in range(n_chunks)}
         bar = tqdm(
@@ -299,7 +300,11 @@ def main(argv: list[str] | None = None) -> int:
         "there, 130 interrupted. The spec format is in README.md.",
     )
     parser.add_argument("spec", help="sweep YAML, e.g. sweeps/slope.yaml")
-    parser.add_argument("--out", type=Path, help="result folder (default: the spec's output)")
+    parser.add_argument(
+        "--out",
+        help="result folder, a local path or a URI pyarrow.fs understands such as s3://bucket/sweep "
+        "(default: the spec's output)",
+    )
     parser.add_argument(
         "--backend",
         choices=("auto", "mujoco", "mjx", "warp"),
@@ -325,6 +330,8 @@ def main(argv: list[str] | None = None) -> int:
         if args.dry_run:
             print(dry_run(spec, args.limit, args.backend or spec.backend, args.max_variants))
             return EXIT_OK
+        if args.plots and "://" in str(args.out or spec.output):
+            raise ConfigError("--plots: figures are written to a local folder; give a local --out for them")
         enable_compile_cache()
         s = run_sweep(
             spec,
