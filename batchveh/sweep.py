@@ -13,25 +13,20 @@ from __future__ import annotations
 
 import argparse
 import os
-import platform
 import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
-from batchveh import stats
-from batchveh.batch import apply_solver, make_batch
+from batchveh.chunks import ChunkRunner
 from batchveh.config import ConfigError
-from batchveh.params import parameter_specs
-from batchveh.results import Locked, ResultFolder, load, part_table
+from batchveh.results import Locked, ResultError, ResultFolder, load
 from batchveh.spec import MAX_VARIANTS, SweepSpec, load_spec
 
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_INTERRUPTED = 0, 2, 3, 130
-TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match it
 
 # Rough rates in variant-steps/s for the dry run's estimate, measured with the default (elliptic)
 # contact (benchmarks/RESULTS.md): MuJoCo C 7.8e4 on 2 threads (the main job on a fresh clone);
@@ -40,29 +35,6 @@ TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match
 RATE_PER_CPU = {"mujoco": 3.9e4, "mjx": 5.0e3, "warp": 2.2e3}  # per MuJoCo thread or CPU core
 RATE_PER_GPU = {"mjx": 1.4e6, "warp": 5.0e6}
 COMPILE_S = {"mujoco": 2.0, "mjx-cpu": 60.0, "mjx-gpu": 15.0, "warp-cpu": 40.0, "warp-gpu": 60.0}
-
-
-def _versions() -> dict[str, str]:
-    import jax
-    import mujoco
-
-    from batchveh import __version__
-
-    return {
-        "batchveh": __version__,
-        "mujoco": mujoco.__version__,
-        "jax": jax.__version__,
-        "python": platform.python_version(),
-    }
-
-
-def _device(backend: str) -> str:
-    if backend in ("mjx", "warp"):
-        import jax
-
-        devs = jax.devices()[: 1 if backend == "warp" else None]
-        return f"{len(devs)} x {devs[0].device_kind} ({devs[0].platform})"
-    return f"{os.cpu_count()} CPU threads ({platform.processor() or platform.machine()})"
 
 
 def enable_compile_cache() -> None:
@@ -87,6 +59,31 @@ def count_variants(spec: SweepSpec, limit: int | None = None, max_variants: int 
     return n
 
 
+class InProcess:
+    """The default executor: the chunks run one after another in this process, on one engine."""
+
+    spreads = False  # the automatic chunk size does not depend on a number of workers
+
+    def start(self, spec: SweepSpec, backend: str, n: int, chunk_size: int | None, folder: ResultFolder):
+        """Build the engine; return (what the manifest records, the device in words)."""
+        self.runner, self.folder = ChunkRunner(spec, backend, n, chunk_size), folder
+        return self.runner.manifest, self.runner.device
+
+    def run(self, todo: list[int], finished: Callable[[int, str, dict], None], note: Callable[[str], None]):
+        """Run and write the chunks in `todo`, calling finished(chunk, part name, record) after each;
+        return the chunks that failed (none: an error here stops the sweep)."""
+        for c in todo:
+            finished(c, *self.folder.write_file(c, self.runner.run(c)))
+        return {}
+
+    def engine_stats(self) -> dict[str, Any]:
+        e = self.runner.engine
+        return {"compile_s": e.compile_s, "compiles": e.compiles, "warnings": list(getattr(e, "warnings", []))}
+
+    def close(self) -> None:
+        pass
+
+
 def run_sweep(
     spec: SweepSpec,
     *,
@@ -99,96 +96,72 @@ def run_sweep(
     max_variants: int = MAX_VARIANTS,
     progress: bool = True,
     report: Callable[[str], None] | None = None,
+    executor: InProcess | None = None,
 ) -> dict[str, Any]:
     """Run `spec`, writing part files under `out` (a local path or a URI pyarrow.fs understands);
     return a summary dict.
 
-    Raises FileExistsError where results exist and neither resume nor overwrite is given,
+    `executor`: what runs the chunks (None: one after another in this process); chunks that
+    failed without stopping it are named in the summary's "failed" ({chunk: why}). Raises
+    FileExistsError where results exist and neither resume nor overwrite is given,
     results.Locked where another sweep writes there, ConfigError for a bad spec or setting.
     `report` receives notes for the user (damaged parts that run again)."""
     from tqdm.auto import tqdm
 
-    from batchveh.engines import make_engine, resolve_backend
-
     n = count_variants(spec, limit, max_variants)
-    table = spec.table()
-    backend = resolve_backend(backend or spec.backend)
-    cfg = spec.stats_config()
-    try:
-        engine = make_engine(
-            backend, spec.scenario, cfg, chunk_size or spec.chunk_size, n_variants=n, precision=spec.precision
-        )
-    except ConfigError as err:  # a setting the backend cannot run: name the file
-        raise ConfigError(f"{spec.where}: {err}") from None
-    chunk = engine.chunk_size
-    manifest = {
-        "spec": spec.raw,
-        "n_variants": n,
-        "chunk_size": chunk,
-        "backend": backend,
-        "precision": spec.precision,
-        "table_version": TABLE_VERSION,
-        "settle_time": spec.scenario.settle_time,  # the default may change: a resume must match it
-    }
-    engine_meta = {"implementation": engine.implementation, "solver": solver_settings(spec)}
-    manifest.update(engine_meta)
     folder = ResultFolder(out or spec.output)
-    specs = parameter_specs(spec.vehicle)
-    param_units = {k: specs[k].get("unit", "") for k in spec.params}
-    base_meta = {
-        "spec": spec.raw,
-        "versions": _versions(),
-        "device": _device(backend),
-        "backend": backend,
-        **engine_meta,
-        "precision": spec.precision,
-        "window_s": [cfg.window_start, cfg.window_end],
-        "lowpass_s": cfg.lowpass_s,
-        "p95_stride": cfg.stride,
-        "time_step": spec.scenario.time_step,
-        "total_time": spec.scenario.total_time,
-    }
-    n_chunks = -(-n // chunk)
+    executor = executor or InProcess()
     note = report or (lambda _: None)
-    if backend == "mjx" and spec.precision == "f32" and spec.vehicle.contact_model.cone == "elliptic":
-        note(
-            "MJX in float32 with the elliptic friction cone: four-wheel sums hold (1e-4), per-wheel "
-            "torques drift by 6% (median) on a GPU; for per-wheel values give precision: f64, or the "
-            "fast contact preset vehicle.contact_model {cone: pyramidal, impratio: 1} (README, Speed)"
-        )
-    with folder.lock():
-        done, bad = folder.open(manifest, resume=resume, overwrite=overwrite)
-        for name, why in bad.items():
-            note(f"{folder.where(name)}: {why}; its chunk runs again")
-        todo = [c for c in range(n_chunks) if c not in done]
-        size = {c: min(chunk, n - c * chunk) for c in range(n_chunks)}
-        bar = tqdm(
-            total=n,
-            initial=n - sum(size[c] for c in todo),
-            unit="variant",
-            desc=spec.name,
-            disable=not progress,
-            dynamic_ncols=True,
-        )
-        t_start = time.perf_counter()
-        ran = 0
-        for c in todo:
-            rows = table.rows(c * chunk, c * chunk + size[c])
-            t0 = time.perf_counter()
-            batch = make_batch(spec.vehicle, spec.scenario, {k: rows[k].to_numpy() for k in spec.params}, spec.params)
-            apply_solver(batch.model, spec.solver)
-            res = engine.run(batch)
-            cols = {k: np.asarray(v) for k, v in res.items() if k != "status_code"}
-            cols["status"] = [stats.STATUS[int(s)] for s in np.asarray(res["status_code"])]
-            frame = pd.concat([rows.reset_index(drop=True), pd.DataFrame(cols)], axis=1)
-            meta = {**base_meta, "chunk": c, "chunk_wall_s": time.perf_counter() - t0, "compile_s": engine.compile_s}
-            folder.write_part(c, part_table(frame, param_units, meta))
-            ran += len(rows)
-            bar.update(len(rows))
-        bar.close()
-        wall = time.perf_counter() - t_start
+    folder.refuse_existing(resume=resume, overwrite=overwrite)  # before workers start, which takes a while
+    if resume and chunk_size is None and executor.spreads:
+        # the automatic chunk size follows the number of workers, which may have changed since
+        chunk_size = (folder.read_manifest() or {}).get("chunk_size")
+    try:
+        manifest, device = executor.start(spec, backend or spec.backend, n, chunk_size, folder)
+        backend, chunk = manifest["backend"], manifest["chunk_size"]
+        if backend == "mjx" and spec.precision == "f32" and spec.vehicle.contact_model.cone == "elliptic":
+            note(
+                "MJX in float32 with the elliptic friction cone: four-wheel sums hold (1e-4), per-wheel "
+                "torques drift by 6% (median) on a GPU; for per-wheel values give precision: f64, or the "
+                "fast contact preset vehicle.contact_model {cone: pyramidal, impratio: 1} (README, Speed)"
+            )
+        n_chunks = -(-n // chunk)
+        with folder.lock():
+            done, bad = folder.open(manifest, resume=resume, overwrite=overwrite)
+            for name, why in bad.items():
+                note(f"{folder.where(name)}: {why}; its chunk runs again")
+            todo = [c for c in range(n_chunks) if c not in done]
+            size = {c: min(chunk, n - c * chunk) for c in range(n_chunks)}
+            bar = tqdm(
+                total=n,
+                initial=n - sum(size[c] for c in todo),
+                unit="variant",
+                desc=spec.name,
+                disable=not progress,
+                dynamic_ncols=True,
+            )
+            t_start = time.perf_counter()
+            ran = 0
+
+            def finished(c: int, name: str, rec: dict[str, Any]) -> None:
+                nonlocal ran
+                folder.record(name, rec)
+                ran += size[c]
+                bar.update(size[c])
+
+            failed = executor.run(todo, finished, note)
+            bar.close()
+            wall = time.perf_counter() - t_start
+            engine = executor.engine_stats()
+            executor.close()  # no worker writes any more: what a killed one left behind can go
+            folder.remove_temporaries()
+    finally:
+        executor.close()
     # the parts were verified when the folder was opened and hashed as they were written
-    result = load(folder.path, columns=["status", "slipping"], verify=False)
+    try:
+        result = load(folder.path, columns=["status", "slipping"], verify=False)
+    except ResultError:  # not one part: every chunk failed
+        result = pd.DataFrame({"status": pd.Series(dtype=str), "slipping": pd.Series(dtype=bool)})
     counts = result["status"].value_counts().to_dict()
     return {
         "rows": len(result),
@@ -198,33 +171,16 @@ def run_sweep(
         "flipped": counts.get("flipped", 0),
         "slipping": int(result["slipping"].sum()),
         "wall_s": wall,
-        "compile_s": engine.compile_s,
-        "compiles": engine.compiles,
-        "variant_steps_per_s": ran * cfg.n_steps / wall if wall > 0 else 0.0,
+        "compile_s": engine["compile_s"],
+        "compiles": engine["compiles"],
+        "variant_steps_per_s": ran * spec.stats_config().n_steps / wall if wall > 0 else 0.0,
         "out": folder.path,
         "backend": backend,
-        "device": base_meta["device"],
-        "engine_warnings": list(getattr(engine, "warnings", [])),
+        "device": device,
+        "engine_warnings": engine["warnings"],
+        "failed": failed,
+        "chunk_size": chunk,
         "folder": folder,
-    }
-
-
-def solver_settings(spec: SweepSpec) -> dict[str, Any]:
-    """The constraint solver and contact options every variant runs with (MuJoCo's names)."""
-    import mujoco
-
-    from batchveh.batch import model_for
-
-    m = model_for(spec.vehicle, spec.scenario)
-    apply_solver(m, spec.solver)
-    return {
-        "solver": mujoco.mjtSolver(m.opt.solver).name.removeprefix("mjSOL_").lower(),
-        "iterations": int(m.opt.iterations),
-        "ls_iterations": int(m.opt.ls_iterations),
-        "tolerance": float(m.opt.tolerance),
-        "cone": mujoco.mjtCone(m.opt.cone).name.removeprefix("mjCONE_").lower(),
-        "impratio": float(m.opt.impratio),
-        "integrator": mujoco.mjtIntegrator(m.opt.integrator).name.removeprefix("mjINT_").lower(),
     }
 
 
