@@ -3,10 +3,12 @@
     python -m batchveh.sweep sweeps/slope.yaml
     python -m batchveh.sweep sweeps/slope.yaml --backend mjx --limit 100 --out /tmp/s
     python -m batchveh.sweep sweeps/slope.yaml --resume      # after an interruption
+    python -m batchveh.sweep sweeps/slope.yaml --executor ray --address HEAD:6379 --out s3://bucket/slope
 
 Exit codes: 0 done (all ok or some flagged), 2 bad spec, arguments or files (one
 line), 3 results exist (give --resume or --overwrite) or another sweep is writing
-there, 130 interrupted (finished chunks kept).
+there, 4 partial: some chunks kept failing on the Ray workers (named; the others
+are written, --resume retries the rest), 130 interrupted (finished chunks kept).
 """
 
 from __future__ import annotations
@@ -17,16 +19,19 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
 from batchveh.chunks import ChunkRunner
 from batchveh.config import ConfigError
-from batchveh.results import Locked, ResultError, ResultFolder, load
+from batchveh.results import PART, Locked, ResultError, ResultFolder, load
 from batchveh.spec import MAX_VARIANTS, SweepSpec, load_spec
 
-EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_INTERRUPTED = 0, 2, 3, 130
+if TYPE_CHECKING:
+    from batchveh.cluster import RayExecutor
+
+EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_PARTIAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
 
 # Rough rates in variant-steps/s for the dry run's estimate, measured with the default (elliptic)
 # contact (benchmarks/RESULTS.md): MuJoCo C 7.8e4 on 2 threads (the main job on a fresh clone);
@@ -96,16 +101,17 @@ def run_sweep(
     max_variants: int = MAX_VARIANTS,
     progress: bool = True,
     report: Callable[[str], None] | None = None,
-    executor: InProcess | None = None,
+    executor: InProcess | RayExecutor | None = None,
 ) -> dict[str, Any]:
     """Run `spec`, writing part files under `out` (a local path or a URI pyarrow.fs understands);
     return a summary dict.
 
-    `executor`: what runs the chunks (None: one after another in this process); chunks that
-    failed without stopping it are named in the summary's "failed" ({chunk: why}). Raises
-    FileExistsError where results exist and neither resume nor overwrite is given,
-    results.Locked where another sweep writes there, ConfigError for a bad spec or setting.
-    `report` receives notes for the user (damaged parts that run again)."""
+    `executor`: None runs the chunks in this process; a `batchveh.cluster.RayExecutor` runs them
+    on Ray workers, and chunks that kept failing there are named in the summary's "failed"
+    ({chunk: why}) while the others are written. Raises FileExistsError where results exist and
+    neither resume nor overwrite is given, results.Locked where another sweep writes there,
+    ConfigError for a bad spec or setting. `report` receives notes for the user (damaged parts
+    that run again, chunks retried)."""
     from tqdm.auto import tqdm
 
     n = count_variants(spec, limit, max_variants)
@@ -253,7 +259,8 @@ def main(argv: list[str] | None = None) -> int:
         prog="python -m batchveh.sweep",
         description=__doc__.split("\n\n")[0],
         epilog="Exit codes: 0 done, 2 bad spec, argument or file, 3 results exist or another sweep writes "
-        "there, 130 interrupted. The spec format is in README.md.",
+        "there, 4 partial (with --executor ray: chunks that kept failing are named, the others are written; "
+        "--resume runs the rest), 130 interrupted. The spec format is in README.md.",
     )
     parser.add_argument("spec", help="sweep YAML, e.g. sweeps/slope.yaml")
     parser.add_argument(
@@ -280,7 +287,22 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.add_argument("--plots", action="store_true", help="also write envelope/heatmap PNGs into the results")
+    parser.add_argument(
+        "--executor",
+        choices=("local", "ray"),
+        default="local",
+        help="local: the chunks run in this process (default); ray: on Ray workers, one per GPU or else per "
+        "CPU, which write the parts themselves (pip install -e '.[ray]')",
+    )
+    parser.add_argument(
+        "--address",
+        help="with --executor ray: the cluster to join (auto, HOST:PORT as `ray start --head` prints it, or "
+        "ray://HOST:PORT); default: start a local Ray instance on this machine",
+    )
     args = parser.parse_args(argv)
+    if args.address is not None and args.executor != "ray":
+        parser.error("--address: needs --executor ray")
+    started_ray = False
     try:
         spec = load_spec(args.spec)
         if args.dry_run:
@@ -289,6 +311,12 @@ def main(argv: list[str] | None = None) -> int:
         if args.plots and "://" in str(args.out or spec.output):
             raise ConfigError("--plots: figures are written to a local folder; give a local --out for them")
         enable_compile_cache()
+        executor = None
+        if args.executor == "ray":
+            from batchveh import cluster
+
+            started_ray = cluster.connect(args.address)
+            executor = cluster.RayExecutor()
         s = run_sweep(
             spec,
             out=args.out,
@@ -300,6 +328,7 @@ def main(argv: list[str] | None = None) -> int:
             max_variants=args.max_variants,
             progress=not args.quiet,
             report=lambda msg: print(f"note: {msg}", file=sys.stderr),
+            executor=executor,
         )
         if args.plots:
             from batchveh.plot import sweep_figures
@@ -319,6 +348,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("\ninterrupted: finished chunks are kept; run again with --resume", file=sys.stderr)
         return EXIT_INTERRUPTED
+    finally:
+        if started_ray:
+            cluster.disconnect()
     if s["engine_warnings"]:
         print(f"MuJoCo reported unstable simulations (marked diverged), e.g.: {s['engine_warnings'][0]}")
     print(
@@ -327,6 +359,12 @@ def main(argv: list[str] | None = None) -> int:
         f"{s['variant_steps_per_s']:.3g} variant-steps/s on {s['backend']} ({s['device']})"
     )
     print(f"results: {s['out']}  (pandas: batchveh.load({str(s['out'])!r}))")
+    for c, why in sorted(s["failed"].items()):
+        print(f"error: chunk {c} ({PART.format(c)}) not written: {why}", file=sys.stderr)
+    if s["failed"]:
+        k = len(s["failed"])
+        print(f"partial: {k} chunk{'s' * (k > 1)} not written, the others are; --resume runs them", file=sys.stderr)
+        return EXIT_PARTIAL
     return EXIT_OK
 
 
