@@ -30,9 +30,13 @@ import os
 import socket
 from collections import Counter, deque
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from batchveh.config import ConfigError
+
+if TYPE_CHECKING:
+    from batchveh.results import ResultFolder
+    from batchveh.spec import SweepSpec
 
 MAX_ATTEMPTS = 3  # runs of one chunk before it is reported failed
 MAX_RESTARTS = 3  # restarts of one worker after its process died
@@ -44,7 +48,9 @@ class ChunkWorker:
     A setting the backend cannot run is kept and told by `describe`, so that the driver
     reports it in one line (an actor whose constructor raises is dead, its error buried)."""
 
-    def __init__(self, spec, backend: str, n: int, chunk_size: int | None, workers: int, nthread: int, out: str):
+    def __init__(
+        self, spec: SweepSpec, backend: str, n: int, chunk_size: int | None, workers: int, nthread: int, out: str
+    ):
         from batchveh.chunks import ChunkRunner
         from batchveh.results import ResultFolder
 
@@ -152,7 +158,9 @@ class RayExecutor:
         self.actors: list[Any] = []
         self.workers_info: list[dict[str, Any]] = []
 
-    def start(self, spec, backend: str, n: int, chunk_size: int | None, folder) -> tuple[dict[str, Any], str]:
+    def start(
+        self, spec: SweepSpec, backend: str, n: int, chunk_size: int | None, folder: ResultFolder
+    ) -> tuple[dict[str, Any], str]:
         """Start the workers and build their engines; return (what the manifest records, the
         devices in words). ConfigError where a worker cannot run the spec, or workers differ."""
         import ray

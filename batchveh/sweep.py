@@ -69,12 +69,16 @@ class InProcess:
 
     spreads = False  # the automatic chunk size does not depend on a number of workers
 
-    def start(self, spec: SweepSpec, backend: str, n: int, chunk_size: int | None, folder: ResultFolder):
+    def start(
+        self, spec: SweepSpec, backend: str, n: int, chunk_size: int | None, folder: ResultFolder
+    ) -> tuple[dict[str, Any], str]:
         """Build the engine; return (what the manifest records, the device in words)."""
         self.runner, self.folder = ChunkRunner(spec, backend, n, chunk_size), folder
         return self.runner.manifest, self.runner.device
 
-    def run(self, todo: list[int], finished: Callable[[int, str, dict], None], note: Callable[[str], None]):
+    def run(
+        self, todo: list[int], finished: Callable[[int, str, dict], None], note: Callable[[str], None]
+    ) -> dict[int, str]:
         """Run and write the chunks in `todo`, calling finished(chunk, part name, record) after each;
         return the chunks that failed (none: an error here stops the sweep)."""
         for c in todo:
