@@ -9,16 +9,21 @@ its file metadata carries the spec, the batchveh, mujoco and jax versions, the
 device and the timings. Parts and the manifest are written under a temporary name,
 then renamed, so a kill leaves either the old file or the new one.
 
-A running sweep holds an advisory lock on `.batchveh.lock` in the folder, so a
-second writer stops at once with the holder's process id and host.
+The folder is a local path or a URI that `pyarrow.fs` understands (`s3://bucket/sweep`,
+`gs://...`, `file:///...`); both are read and written through `pyarrow.fs`. On a local
+file system a running sweep holds an advisory lock on `.batchveh.lock` in the folder, so
+a second writer stops at once with the holder's process id and host; an object store has
+no such lock, and one folder must have one sweep at a time.
 """
 
 from __future__ import annotations
 
 import contextlib
+import fnmatch
 import hashlib
 import json
 import os
+import posixpath
 import socket
 from collections.abc import Iterator
 from pathlib import Path
@@ -26,14 +31,17 @@ from typing import Any
 
 import pandas as pd
 import pyarrow as pa
+import pyarrow.fs as pafs
 import pyarrow.parquet as pq
 
 from batchveh.config import ConfigError
 from batchveh.stats import CHANNELS
+from batchveh.storage import file_sha256, filesystem, parquet_bytes, write_atomic
 
 MANIFEST = "manifest.json"
 LOCK = ".batchveh.lock"
 PART = "part-{:05d}.parquet"
+PART_GLOB = "part-*.parquet"
 
 
 class ResultError(ConfigError):
@@ -99,20 +107,9 @@ def column_doc(name: str, param_units: dict[str, str]) -> tuple[str, str]:
     return "", ""
 
 
-def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
-def _write_atomic(path: Path, write) -> None:
-    """Call write(tmp) on a temporary name beside `path`, then rename it to `path`: a kill leaves
-    the old file or the new one, never half of one."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    write(tmp)
-    os.replace(tmp, path)
+def _temporary(name: str) -> bool:
+    """A temporary of `storage.write_atomic` for a part or the manifest (left behind by a kill)."""
+    return name.endswith(".tmp") and (name.startswith(".part-") or name.startswith(f".{MANIFEST}."))
 
 
 def annotated_table(frame: pd.DataFrame, fields: dict[str, dict[str, str]], meta: dict[str, str]) -> pa.Table:
@@ -131,46 +128,68 @@ def part_table(frame: pd.DataFrame, param_units: dict[str, str], meta: dict[str,
     return annotated_table(frame, fields, {"batchveh": json.dumps(meta, default=str)})
 
 
-def write_table(table: pa.Table, path: Path) -> None:
-    """Write `table` to `path` atomically (temporary name, then rename)."""
-    _write_atomic(path, lambda tmp: pq.write_table(table, tmp))
-
-
 class ResultFolder:
-    """A sweep's output folder: manifest, lock and part files.
+    """A sweep's output folder: manifest, lock and part files, on a local disk or an object store.
 
-    `open` checks what is there against the new manifest and returns the finished
-    chunks; `write_part` writes a chunk and records it. Hold `lock()` around both."""
+    `open` checks what is there against the new manifest and returns the finished chunks;
+    `write_part` writes a chunk and records it. Hold `lock()` around both. A worker of a
+    cluster writes its part with `write_file` and hands the record to the driver, which owns
+    the manifest (`record`)."""
 
-    def __init__(self, path: str | Path):
-        self.path = Path(path)
+    def __init__(self, location: str | Path):
+        self.fs, self.root = filesystem(location)
+        # where messages and `load` point: the path as given, or the URI
+        self.path: Path | str = Path(location) if "://" not in str(location) else str(location).rstrip("/")
         self.manifest: dict[str, Any] = {}
 
-    def part(self, chunk: int) -> Path:
-        return self.path / PART.format(chunk)
+    @property
+    def shared(self) -> str:
+        """The folder as other processes and nodes name it: the absolute path or the URI."""
+        return self.path if isinstance(self.path, str) else self.root
 
-    def parts(self) -> list[Path]:
-        return sorted(self.path.glob("part-*.parquet")) if self.path.is_dir() else []
+    def where(self, name: str) -> str:
+        """A file of the folder, named for a message."""
+        return str(self.path / name) if isinstance(self.path, Path) else f"{self.path}/{name}"
+
+    def _file(self, name: str) -> str:
+        return posixpath.join(self.root, name)
+
+    def _listing(self) -> list[pafs.FileInfo]:
+        if self.fs.get_file_info(self.root).type != pafs.FileType.Directory:
+            return []
+        return self.fs.get_file_info(pafs.FileSelector(self.root, allow_not_found=True))
+
+    def parts(self) -> list[str]:
+        """The part files' names, in chunk order."""
+        infos = self._listing()
+        return sorted(
+            f.base_name for f in infos if f.type == pafs.FileType.File and fnmatch.fnmatchcase(f.base_name, PART_GLOB)
+        )
 
     def read_manifest(self) -> dict[str, Any] | None:
-        f = self.path / MANIFEST
-        if not f.is_file():
+        f = self._file(MANIFEST)
+        if self.fs.get_file_info(f).type != pafs.FileType.File:
             return None
         try:
-            return json.loads(f.read_text())
+            with self.fs.open_input_stream(f) as stream:
+                return json.loads(stream.read())
         except (json.JSONDecodeError, UnicodeDecodeError):
             raise ResultError(
-                f"{f}: damaged (not JSON); give --overwrite to run the sweep again from scratch"
+                f"{self.where(MANIFEST)}: damaged (not JSON); give --overwrite to run the sweep again from scratch"
             ) from None
 
     @contextlib.contextmanager
     def lock(self) -> Iterator[None]:
-        """Hold the folder's advisory lock; raise Locked naming the holder if another process has it."""
+        """Hold the folder's advisory lock; raise Locked naming the holder if another process has it.
+        On an object store there is no lock to take: the folder is created, nothing is locked."""
         import fcntl
 
         self._check_folder()
-        self.path.mkdir(parents=True, exist_ok=True)
-        fd = os.open(self.path / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        self.fs.create_dir(self.root, recursive=True)
+        if not isinstance(self.fs, pafs.LocalFileSystem):
+            yield
+            return
+        fd = os.open(self._file(LOCK), os.O_RDWR | os.O_CREAT, 0o644)
         try:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -184,25 +203,34 @@ class ResultFolder:
             os.close(fd)  # closing releases the lock
 
     def _check_folder(self) -> None:
-        for p in (self.path, *self.path.parents):
-            if p.exists() and not p.is_dir():
+        p = self.root
+        while p not in ("", "/", "."):
+            if self.fs.get_file_info(p).type == pafs.FileType.File:
                 raise ConfigError(f"{self.path}: {p} exists and is not a folder; allowed: a folder for the results")
+            p = posixpath.dirname(p)
 
     def verify(self) -> tuple[set[int], dict[str, str]]:
         """(finished chunks, {part name: what is wrong}) against the manifest's records."""
         records = (self.read_manifest() or {}).get("parts", {})
         done, bad = set(), {}
-        for f in self.parts():
-            rec = records.get(f.name)
+        for name in self.parts():
+            rec, size = records.get(name), self.fs.get_file_info(self._file(name)).size
             if rec is None:
-                bad[f.name] = "not in the manifest (written by a run that was killed before recording it)"
-            elif f.stat().st_size != rec["bytes"]:
-                bad[f.name] = f"{f.stat().st_size} bytes where {rec['bytes']} were written (truncated or changed)"
-            elif _sha256(f) != rec["sha256"]:
-                bad[f.name] = "checksum differs from the one recorded (the file changed after it was written)"
+                bad[name] = "not in the manifest (written by a run that was killed before recording it)"
+            elif size != rec["bytes"]:
+                bad[name] = f"{size} bytes where {rec['bytes']} were written (truncated or changed)"
+            elif file_sha256(self.fs, self._file(name)) != rec["sha256"]:
+                bad[name] = "checksum differs from the one recorded (the file changed after it was written)"
             else:
-                done.add(int(f.stem.split("-")[1]))
+                done.add(int(name.removesuffix(".parquet").split("-")[1]))
         return done, bad
+
+    def refuse_existing(self, *, resume: bool, overwrite: bool) -> None:
+        """FileExistsError where results are there and neither resume nor overwrite is given."""
+        if not resume and not overwrite and (self.parts() or self.read_manifest() is not None):
+            raise FileExistsError(
+                f"{self.path} holds results; give --resume to continue or --overwrite to replace them"
+            )
 
     def open(self, manifest: dict[str, Any], *, resume: bool, overwrite: bool) -> tuple[set[int], dict[str, str]]:
         """Start or resume: returns (finished chunks, bad parts removed for a rerun).
@@ -210,12 +238,9 @@ class ResultFolder:
         Raises FileExistsError where results exist and neither resume nor overwrite is
         given, and ConfigError where they come from another spec or setting."""
         self._check_folder()
+        self.refuse_existing(resume=resume, overwrite=overwrite)
         old = self.read_manifest() if not overwrite else None
         existing = self.parts()
-        if (existing or old is not None) and not resume and not overwrite:
-            raise FileExistsError(
-                f"{self.path} holds results; give --resume to continue or --overwrite to replace them"
-            )
         if overwrite:
             self.remove()
         done, bad = set(), {}
@@ -230,31 +255,44 @@ class ResultFolder:
                 )
             done, bad = self.verify()
             for name in bad:
-                (self.path / name).unlink()
+                self.fs.delete_file(self._file(name))
             manifest = {**manifest, "parts": {k: v for k, v in old.get("parts", {}).items() if k not in bad}}
         elif resume:  # parts but no manifest: nothing can be verified
-            for f in existing:
-                bad[f.name] = "no manifest to verify it against"
-                f.unlink()
+            for name in existing:
+                bad[name] = "no manifest to verify it against"
+                self.fs.delete_file(self._file(name))
+        self.remove_temporaries()
         self.manifest = {**manifest, "parts": manifest.get("parts", {})}
-        self.path.mkdir(parents=True, exist_ok=True)
+        self.fs.create_dir(self.root, recursive=True)
         self._save()
         return done, bad
 
+    def remove_temporaries(self) -> None:
+        """Delete the temporaries of writers that were killed (call it while no writer runs)."""
+        for f in self._listing():
+            if _temporary(f.base_name):
+                self.fs.delete_file(f.path)
+
     def _save(self) -> None:
         text = json.dumps(self.manifest, indent=1, default=str)
-        _write_atomic(self.path / MANIFEST, lambda tmp: tmp.write_text(text))
+        write_atomic(self.fs, self._file(MANIFEST), text.encode())
+
+    def write_file(self, chunk: int, table: pa.Table) -> tuple[str, dict[str, Any]]:
+        """Write chunk's part atomically; return (its name, its record: rows, bytes, SHA-256). The
+        checksum is of the bytes written, so it needs no second read of the file."""
+        name = PART.format(chunk)
+        data = parquet_bytes(table)
+        write_atomic(self.fs, self._file(name), data)
+        return name, {"rows": table.num_rows, "bytes": data.size, "sha256": hashlib.sha256(data).hexdigest()}
+
+    def record(self, name: str, rec: dict[str, Any]) -> None:
+        """Enter a written part in the manifest, and save it."""
+        self.manifest["parts"][name] = rec
+        self._save()
 
     def write_part(self, chunk: int, table: pa.Table) -> None:
         """Write chunk's table atomically, then record its size and checksum in the manifest."""
-        path = self.part(chunk)
-        write_table(table, path)
-        self.manifest["parts"][path.name] = {
-            "rows": table.num_rows,
-            "bytes": path.stat().st_size,
-            "sha256": _sha256(path),
-        }
-        self._save()
+        self.record(*self.write_file(chunk, table))
 
     def record_files(self, paths: list[Path]) -> None:
         """Remember other files written into the folder (figures), so --overwrite removes them too."""
@@ -267,9 +305,10 @@ class ResultFolder:
         old = {}
         with contextlib.suppress(ResultError):
             old = self.read_manifest() or {}
-        extra = [self.path / name for name in old.get("files", []) if "/" not in name]
-        for f in [*self.parts(), *self.path.glob(".part-*.tmp"), self.path / MANIFEST, *extra]:
-            f.unlink(missing_ok=True)
+        ours = {*self.parts(), MANIFEST, *(name for name in old.get("files", []) if "/" not in name)}
+        for f in self._listing():
+            if f.type == pafs.FileType.File and (f.base_name in ours or _temporary(f.base_name)):
+                self.fs.delete_file(f.path)
 
 
 def _short(value: Any) -> str:
@@ -277,61 +316,65 @@ def _short(value: Any) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def parts(out: str | Path) -> list[Path]:
-    """The part files of a result folder, in chunk order."""
-    return ResultFolder(out).parts()
+def parts(out: str | Path) -> list[Path] | list[str]:
+    """The part files of a result folder, in chunk order (paths, or URIs on an object store)."""
+    folder = ResultFolder(out)
+    return [folder.path / n if isinstance(folder.path, Path) else folder.where(n) for n in folder.parts()]
+
+
+def _files(folder: ResultFolder) -> list[tuple[str, str]]:
+    """[(path on the folder's file system, name for messages)] of its parts, or of the one file it names."""
+    kind = folder.fs.get_file_info(folder.root).type
+    if kind == pafs.FileType.File:
+        return [(folder.root, str(folder.path))]
+    if kind != pafs.FileType.Directory:
+        raise ResultError(f"{folder.path}: not found")
+    names = folder.parts()
+    if not names:
+        raise ResultError(f"{folder.path}: no part-*.parquet files (not a sweep result, or nothing finished yet)")
+    return [(folder._file(n), folder.where(n)) for n in names]
 
 
 def load(path: str | Path, columns: list[str] | None = None, verify: bool = True) -> pd.DataFrame:
     """All rows of a sweep result folder (or one Parquet file) as a DataFrame, by variant.
 
-    Every part is checked against the manifest first (`verify`); a bad one raises ResultError
-    naming it and what to do. `columns`: read only these (and `variant`)."""
-    path = Path(path)
-    if path.is_dir():
-        folder = ResultFolder(path)
-        files = folder.parts()
-        if not files:
-            raise ResultError(f"{path}: no part-*.parquet files (not a sweep result, or nothing finished yet)")
-        if verify and "parts" in (folder.read_manifest() or {}):  # older results recorded no checksums
-            _, bad = folder.verify()
-            if bad:
-                name, why = next(iter(bad.items()))
-                more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
-                raise ResultError(f"{path / name}: {why}{more}; run the sweep again with --resume to recompute it")
-    elif path.is_file():
-        files = [path]
-    else:
-        raise ResultError(f"{path}: not found")
+    `path`: a local path or a URI pyarrow.fs understands (s3://...). Every part is checked
+    against the manifest first (`verify`); a bad one raises ResultError naming it and what to
+    do. `columns`: read only these (and `variant`)."""
+    folder = ResultFolder(path)
+    files = _files(folder)
+    if verify and files[0][0] != folder.root and "parts" in (folder.read_manifest() or {}):
+        _, bad = folder.verify()  # results from before the checksums have no "parts" to check against
+        if bad:
+            name, why = next(iter(bad.items()))
+            more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
+            raise ResultError(f"{folder.where(name)}: {why}{more}; run the sweep again with --resume to recompute it")
     frames = []
-    for f in files:
+    for f, shown in files:
         try:
-            frames.append(pd.read_parquet(f, columns=None if columns is None else ["variant", *columns]))
+            frames.append(
+                pd.read_parquet(f, columns=None if columns is None else ["variant", *columns], filesystem=folder.fs)
+            )
         except (pa.ArrowException, OSError) as err:
             raise ResultError(
-                f"{f}: not a readable Parquet file ({str(err).splitlines()[0]}); "
+                f"{shown}: not a readable Parquet file ({str(err).splitlines()[0]}); "
                 "run the sweep again with --resume to recompute it"
             ) from None
     frame = pd.concat(frames, ignore_index=True)
     return frame.sort_values("variant").reset_index(drop=True) if "variant" in frame else frame
 
 
-def _first_file(path: str | Path) -> Path:
-    """A result's first part file (its schema and metadata stand for all), or the file itself."""
-    path = Path(path)
-    if not path.is_dir():
-        return path
-    files = parts(path)
-    if not files:
-        raise ResultError(f"{path}: no part-*.parquet files (not a sweep result, or nothing finished yet)")
-    return files[0]
+def _first_schema(path: str | Path) -> pa.Schema:
+    """The schema of a result's first part (its fields and metadata stand for all), or of the file."""
+    folder = ResultFolder(path)
+    return pq.read_schema(_files(folder)[0][0], filesystem=folder.fs)
 
 
 def metadata(path: str | Path) -> dict[str, Any]:
     """The batchveh file metadata of a result (spec, versions, device, timings)."""
-    return json.loads(pq.read_schema(_first_file(path)).metadata[b"batchveh"])
+    return json.loads(_first_schema(path).metadata[b"batchveh"])
 
 
 def units(path: str | Path) -> dict[str, str]:
     """Column name -> unit, from the Arrow field metadata."""
-    return {fl.name: fl.metadata[b"unit"].decode() for fl in pq.read_schema(_first_file(path))}
+    return {fl.name: fl.metadata[b"unit"].decode() for fl in _first_schema(path)}

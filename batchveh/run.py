@@ -125,7 +125,8 @@ def write(result: RunResult, out: Path, overwrite: bool = False) -> list[Path]:
     if target.exists() and not overwrite:
         raise FileExistsError(f"{target} exists; give --overwrite to replace it")
     out.mkdir(parents=True, exist_ok=True)
-    from batchveh.results import annotated_table, write_table
+    from batchveh.results import annotated_table
+    from batchveh.storage import write_table
 
     fields = {name: {"unit": UNITS.get(name, "")} for name in result.series.columns}
     meta = {"scenario": repr(result.scenario), "vehicle": repr(result.vehicle)}

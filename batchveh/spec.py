@@ -105,7 +105,7 @@ class SweepSpec:
     params: dict[str, Any]  # grid/zip: name -> values; random/lhs: name -> (low, high, log)
     n: int | None
     seed: int
-    output: Path
+    output: Path | str  # a local folder, or a URI pyarrow.fs understands
     window: tuple[float, float] | None
     lowpass_s: float
     chunk_size: int | None
@@ -309,7 +309,8 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
         params=params,
         n=sw.n,
         seed=sw.seed,
-        output=Path(top.output or Path("results") / top.name),
+        # a URI (s3://...) stays a string: Path would fold its "//"
+        output=top.output if "://" in (top.output or "") else Path(top.output or Path("results") / top.name),
         window=top.window,
         lowpass_s=top.lowpass_s,
         chunk_size=top.chunk_size,

@@ -3,35 +3,35 @@
     python -m batchveh.sweep sweeps/slope.yaml
     python -m batchveh.sweep sweeps/slope.yaml --backend mjx --limit 100 --out /tmp/s
     python -m batchveh.sweep sweeps/slope.yaml --resume      # after an interruption
+    python -m batchveh.sweep sweeps/slope.yaml --executor ray --address HEAD:6379 --out s3://bucket/slope
 
 Exit codes: 0 done (all ok or some flagged), 2 bad spec, arguments or files (one
 line), 3 results exist (give --resume or --overwrite) or another sweep is writing
-there, 130 interrupted (finished chunks kept).
+there, 4 partial: some chunks kept failing on the Ray workers (named; the others
+are written, --resume retries the rest), 130 interrupted (finished chunks kept).
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import platform
 import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
 import pandas as pd
 
-from batchveh import stats
-from batchveh.batch import apply_solver, make_batch
+from batchveh.chunks import ChunkRunner
 from batchveh.config import ConfigError
-from batchveh.params import parameter_specs
-from batchveh.results import Locked, ResultFolder, load, part_table
+from batchveh.results import PART, Locked, ResultError, ResultFolder, load
 from batchveh.spec import MAX_VARIANTS, SweepSpec, load_spec
 
-EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_INTERRUPTED = 0, 2, 3, 130
-TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match it
+if TYPE_CHECKING:
+    from batchveh.cluster import RayExecutor
+
+EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_PARTIAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
 
 # Rough rates in variant-steps/s for the dry run's estimate, measured with the default (elliptic)
 # contact (benchmarks/RESULTS.md): MuJoCo C 7.8e4 on 2 threads (the main job on a fresh clone);
@@ -40,29 +40,6 @@ TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match
 RATE_PER_CPU = {"mujoco": 3.9e4, "mjx": 5.0e3, "warp": 2.2e3}  # per MuJoCo thread or CPU core
 RATE_PER_GPU = {"mjx": 1.4e6, "warp": 5.0e6}
 COMPILE_S = {"mujoco": 2.0, "mjx-cpu": 60.0, "mjx-gpu": 15.0, "warp-cpu": 40.0, "warp-gpu": 60.0}
-
-
-def _versions() -> dict[str, str]:
-    import jax
-    import mujoco
-
-    from batchveh import __version__
-
-    return {
-        "batchveh": __version__,
-        "mujoco": mujoco.__version__,
-        "jax": jax.__version__,
-        "python": platform.python_version(),
-    }
-
-
-def _device(backend: str) -> str:
-    if backend in ("mjx", "warp"):
-        import jax
-
-        devs = jax.devices()[: 1 if backend == "warp" else None]
-        return f"{len(devs)} x {devs[0].device_kind} ({devs[0].platform})"
-    return f"{os.cpu_count()} CPU threads ({platform.processor() or platform.machine()})"
 
 
 def enable_compile_cache() -> None:
@@ -87,10 +64,39 @@ def count_variants(spec: SweepSpec, limit: int | None = None, max_variants: int 
     return n
 
 
+class InProcess:
+    """The default executor: the chunks run one after another in this process, on one engine."""
+
+    spreads = False  # the automatic chunk size does not depend on a number of workers
+
+    def start(
+        self, spec: SweepSpec, backend: str, n: int, chunk_size: int | None, folder: ResultFolder
+    ) -> tuple[dict[str, Any], str]:
+        """Build the engine; return (what the manifest records, the device in words)."""
+        self.runner, self.folder = ChunkRunner(spec, backend, n, chunk_size), folder
+        return self.runner.manifest, self.runner.device
+
+    def run(
+        self, todo: list[int], finished: Callable[[int, str, dict], None], note: Callable[[str], None]
+    ) -> dict[int, str]:
+        """Run and write the chunks in `todo`, calling finished(chunk, part name, record) after each;
+        return the chunks that failed (none: an error here stops the sweep)."""
+        for c in todo:
+            finished(c, *self.folder.write_file(c, self.runner.run(c)))
+        return {}
+
+    def engine_stats(self) -> dict[str, Any]:
+        e = self.runner.engine
+        return {"compile_s": e.compile_s, "compiles": e.compiles, "warnings": list(getattr(e, "warnings", []))}
+
+    def close(self) -> None:
+        pass
+
+
 def run_sweep(
     spec: SweepSpec,
     *,
-    out: Path | None = None,
+    out: str | Path | None = None,
     backend: str | None = None,
     resume: bool = False,
     overwrite: bool = False,
@@ -99,95 +105,73 @@ def run_sweep(
     max_variants: int = MAX_VARIANTS,
     progress: bool = True,
     report: Callable[[str], None] | None = None,
+    executor: InProcess | RayExecutor | None = None,
 ) -> dict[str, Any]:
-    """Run `spec`, writing part files under `out`; return a summary dict.
+    """Run `spec`, writing part files under `out` (a local path or a URI pyarrow.fs understands);
+    return a summary dict.
 
-    Raises FileExistsError where results exist and neither resume nor overwrite is given,
-    results.Locked where another sweep writes there, ConfigError for a bad spec or setting.
-    `report` receives notes for the user (damaged parts that run again)."""
+    `executor`: None runs the chunks in this process; a `batchveh.cluster.RayExecutor` runs them
+    on Ray workers, and chunks that kept failing there are named in the summary's "failed"
+    ({chunk: why}) while the others are written. Raises FileExistsError where results exist and
+    neither resume nor overwrite is given, results.Locked where another sweep writes there,
+    ConfigError for a bad spec or setting. `report` receives notes for the user (damaged parts
+    that run again, chunks retried)."""
     from tqdm.auto import tqdm
 
-    from batchveh.engines import make_engine, resolve_backend
-
     n = count_variants(spec, limit, max_variants)
-    table = spec.table()
-    backend = resolve_backend(backend or spec.backend)
-    cfg = spec.stats_config()
-    try:
-        engine = make_engine(
-            backend, spec.scenario, cfg, chunk_size or spec.chunk_size, n_variants=n, precision=spec.precision
-        )
-    except ConfigError as err:  # a setting the backend cannot run: name the file
-        raise ConfigError(f"{spec.where}: {err}") from None
-    chunk = engine.chunk_size
-    manifest = {
-        "spec": spec.raw,
-        "n_variants": n,
-        "chunk_size": chunk,
-        "backend": backend,
-        "precision": spec.precision,
-        "table_version": TABLE_VERSION,
-        "settle_time": spec.scenario.settle_time,  # the default may change: a resume must match it
-    }
-    engine_meta = {"implementation": engine.implementation, "solver": solver_settings(spec)}
-    manifest.update(engine_meta)
     folder = ResultFolder(out or spec.output)
-    specs = parameter_specs(spec.vehicle)
-    param_units = {k: specs[k].get("unit", "") for k in spec.params}
-    base_meta = {
-        "spec": spec.raw,
-        "versions": _versions(),
-        "device": _device(backend),
-        "backend": backend,
-        **engine_meta,
-        "precision": spec.precision,
-        "window_s": [cfg.window_start, cfg.window_end],
-        "lowpass_s": cfg.lowpass_s,
-        "p95_stride": cfg.stride,
-        "time_step": spec.scenario.time_step,
-        "total_time": spec.scenario.total_time,
-    }
-    n_chunks = -(-n // chunk)
+    executor = executor or InProcess()
     note = report or (lambda _: None)
-    if backend == "mjx" and spec.precision == "f32" and spec.vehicle.contact_model.cone == "elliptic":
-        note(
-            "MJX in float32 with the elliptic friction cone: four-wheel sums hold (1e-4), per-wheel "
-            "torques drift by 6% (median) on a GPU; for per-wheel values give precision: f64, or the "
-            "fast contact preset vehicle.contact_model {cone: pyramidal, impratio: 1, impedance: 0.9} (README, Speed)"
-        )
-    with folder.lock():
-        done, bad = folder.open(manifest, resume=resume, overwrite=overwrite)
-        for name, why in bad.items():
-            note(f"{folder.path / name}: {why}; its chunk runs again")
-        todo = [c for c in range(n_chunks) if c not in done]
-        size = {c: min(chunk, n - c * chunk) for c in range(n_chunks)}
-        bar = tqdm(
-            total=n,
-            initial=n - sum(size[c] for c in todo),
-            unit="variant",
-            desc=spec.name,
-            disable=not progress,
-            dynamic_ncols=True,
-        )
-        t_start = time.perf_counter()
-        ran = 0
-        for c in todo:
-            rows = table.rows(c * chunk, c * chunk + size[c])
-            t0 = time.perf_counter()
-            batch = make_batch(spec.vehicle, spec.scenario, {k: rows[k].to_numpy() for k in spec.params}, spec.params)
-            apply_solver(batch.model, spec.solver)
-            res = engine.run(batch)
-            cols = {k: np.asarray(v) for k, v in res.items() if k != "status_code"}
-            cols["status"] = [stats.STATUS[int(s)] for s in np.asarray(res["status_code"])]
-            frame = pd.concat([rows.reset_index(drop=True), pd.DataFrame(cols)], axis=1)
-            meta = {**base_meta, "chunk": c, "chunk_wall_s": time.perf_counter() - t0, "compile_s": engine.compile_s}
-            folder.write_part(c, part_table(frame, param_units, meta))
-            ran += len(rows)
-            bar.update(len(rows))
-        bar.close()
-        wall = time.perf_counter() - t_start
+    folder.refuse_existing(resume=resume, overwrite=overwrite)  # before workers start, which takes a while
+    if resume and chunk_size is None and executor.spreads:
+        # the automatic chunk size follows the number of workers, which may have changed since
+        chunk_size = (folder.read_manifest() or {}).get("chunk_size")
+    try:
+        manifest, device = executor.start(spec, backend or spec.backend, n, chunk_size, folder)
+        backend, chunk = manifest["backend"], manifest["chunk_size"]
+        if backend == "mjx" and spec.precision == "f32" and spec.vehicle.contact_model.cone == "elliptic":
+            note(
+                "MJX in float32 with the elliptic friction cone: four-wheel sums hold (1e-4), per-wheel "
+                "torques drift by 6% (median) on a GPU; for per-wheel values give precision: f64, or the fast "
+                "contact preset vehicle.contact_model {cone: pyramidal, impratio: 1, impedance: 0.9} (README, Speed)"
+            )
+        n_chunks = -(-n // chunk)
+        with folder.lock():
+            done, bad = folder.open(manifest, resume=resume, overwrite=overwrite)
+            for name, why in bad.items():
+                note(f"{folder.where(name)}: {why}; its chunk runs again")
+            todo = [c for c in range(n_chunks) if c not in done]
+            size = {c: min(chunk, n - c * chunk) for c in range(n_chunks)}
+            bar = tqdm(
+                total=n,
+                initial=n - sum(size[c] for c in todo),
+                unit="variant",
+                desc=spec.name,
+                disable=not progress,
+                dynamic_ncols=True,
+            )
+            t_start = time.perf_counter()
+            ran = 0
+
+            def finished(c: int, name: str, rec: dict[str, Any]) -> None:
+                nonlocal ran
+                folder.record(name, rec)
+                ran += size[c]
+                bar.update(size[c])
+
+            failed = executor.run(todo, finished, note)
+            bar.close()
+            wall = time.perf_counter() - t_start
+            engine = executor.engine_stats()
+            executor.close()  # no worker writes any more: what a killed one left behind can go
+            folder.remove_temporaries()
+    finally:
+        executor.close()
     # the parts were verified when the folder was opened and hashed as they were written
-    result = load(folder.path, columns=["status", "slipping"], verify=False)
+    try:
+        result = load(folder.path, columns=["status", "slipping"], verify=False)
+    except ResultError:  # not one part: every chunk failed
+        result = pd.DataFrame({"status": pd.Series(dtype=str), "slipping": pd.Series(dtype=bool)})
     counts = result["status"].value_counts().to_dict()
     return {
         "rows": len(result),
@@ -197,33 +181,16 @@ def run_sweep(
         "flipped": counts.get("flipped", 0),
         "slipping": int(result["slipping"].sum()),
         "wall_s": wall,
-        "compile_s": engine.compile_s,
-        "compiles": engine.compiles,
-        "variant_steps_per_s": ran * cfg.n_steps / wall if wall > 0 else 0.0,
+        "compile_s": engine["compile_s"],
+        "compiles": engine["compiles"],
+        "variant_steps_per_s": ran * spec.stats_config().n_steps / wall if wall > 0 else 0.0,
         "out": folder.path,
         "backend": backend,
-        "device": base_meta["device"],
-        "engine_warnings": list(getattr(engine, "warnings", [])),
+        "device": device,
+        "engine_warnings": engine["warnings"],
+        "failed": failed,
+        "chunk_size": chunk,
         "folder": folder,
-    }
-
-
-def solver_settings(spec: SweepSpec) -> dict[str, Any]:
-    """The constraint solver and contact options every variant runs with (MuJoCo's names)."""
-    import mujoco
-
-    from batchveh.batch import model_for
-
-    m = model_for(spec.vehicle, spec.scenario)
-    apply_solver(m, spec.solver)
-    return {
-        "solver": mujoco.mjtSolver(m.opt.solver).name.removeprefix("mjSOL_").lower(),
-        "iterations": int(m.opt.iterations),
-        "ls_iterations": int(m.opt.ls_iterations),
-        "tolerance": float(m.opt.tolerance),
-        "cone": mujoco.mjtCone(m.opt.cone).name.removeprefix("mjCONE_").lower(),
-        "impratio": float(m.opt.impratio),
-        "integrator": mujoco.mjtIntegrator(m.opt.integrator).name.removeprefix("mjINT_").lower(),
     }
 
 
@@ -296,10 +263,15 @@ def main(argv: list[str] | None = None) -> int:
         prog="python -m batchveh.sweep",
         description=__doc__.split("\n\n")[0],
         epilog="Exit codes: 0 done, 2 bad spec, argument or file, 3 results exist or another sweep writes "
-        "there, 130 interrupted. The spec format is in README.md.",
+        "there, 4 partial (with --executor ray: chunks that kept failing are named, the others are written; "
+        "--resume runs the rest), 130 interrupted. The spec format is in README.md.",
     )
     parser.add_argument("spec", help="sweep YAML, e.g. sweeps/slope.yaml")
-    parser.add_argument("--out", type=Path, help="result folder (default: the spec's output)")
+    parser.add_argument(
+        "--out",
+        help="result folder, a local path or a URI pyarrow.fs understands such as s3://bucket/sweep "
+        "(default: the spec's output)",
+    )
     parser.add_argument(
         "--backend",
         choices=("auto", "mujoco", "mjx", "warp"),
@@ -319,13 +291,36 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     parser.add_argument("--plots", action="store_true", help="also write envelope/heatmap PNGs into the results")
+    parser.add_argument(
+        "--executor",
+        choices=("local", "ray"),
+        default="local",
+        help="local: the chunks run in this process (default); ray: on Ray workers, one per GPU or else per "
+        "CPU, which write the parts themselves (pip install -e '.[ray]')",
+    )
+    parser.add_argument(
+        "--address",
+        help="with --executor ray: the cluster to join (auto, HOST:PORT as `ray start --head` prints it, or "
+        "ray://HOST:PORT); default: start a local Ray instance on this machine",
+    )
     args = parser.parse_args(argv)
+    if args.address is not None and args.executor != "ray":
+        parser.error("--address: needs --executor ray")
+    started_ray = False
     try:
         spec = load_spec(args.spec)
         if args.dry_run:
             print(dry_run(spec, args.limit, args.backend or spec.backend, args.max_variants))
             return EXIT_OK
+        if args.plots and "://" in str(args.out or spec.output):
+            raise ConfigError("--plots: figures are written to a local folder; give a local --out for them")
         enable_compile_cache()
+        executor = None
+        if args.executor == "ray":
+            from batchveh import cluster
+
+            started_ray = cluster.connect(args.address)
+            executor = cluster.RayExecutor()
         s = run_sweep(
             spec,
             out=args.out,
@@ -337,6 +332,7 @@ def main(argv: list[str] | None = None) -> int:
             max_variants=args.max_variants,
             progress=not args.quiet,
             report=lambda msg: print(f"note: {msg}", file=sys.stderr),
+            executor=executor,
         )
         if args.plots:
             from batchveh.plot import sweep_figures
@@ -356,6 +352,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("\ninterrupted: finished chunks are kept; run again with --resume", file=sys.stderr)
         return EXIT_INTERRUPTED
+    finally:
+        if started_ray:
+            cluster.disconnect()
     if s["engine_warnings"]:
         print(f"MuJoCo reported unstable simulations (marked diverged), e.g.: {s['engine_warnings'][0]}")
     print(
@@ -364,6 +363,12 @@ def main(argv: list[str] | None = None) -> int:
         f"{s['variant_steps_per_s']:.3g} variant-steps/s on {s['backend']} ({s['device']})"
     )
     print(f"results: {s['out']}  (pandas: batchveh.load({str(s['out'])!r}))")
+    for c, why in sorted(s["failed"].items()):
+        print(f"error: chunk {c} ({PART.format(c)}) not written: {why}", file=sys.stderr)
+    if s["failed"]:
+        k = len(s["failed"])
+        print(f"partial: {k} chunk{'s' * (k > 1)} not written, the others are; --resume runs them", file=sys.stderr)
+        return EXIT_PARTIAL
     return EXIT_OK
 
 

@@ -59,6 +59,7 @@ def profile_sweep(spec, n, out, chunk=None):
     threads' CPU in the fold and the control schedule, and the sweep's own setup and writes."""
     from mujoco.batch import Batch
 
+    import batchveh.chunks as ch
     import batchveh.engines.mujoco as em
     import batchveh.sweep as sw
     from batchveh import stats
@@ -83,8 +84,8 @@ def profile_sweep(spec, n, out, chunk=None):
         (stats, "finalize", stats.finalize),
         (em.MujocoEngine, "run", em.MujocoEngine.run),
         (em.MujocoEngine, "__init__", em.MujocoEngine.__init__),
-        (sw, "make_batch", sw.make_batch),
-        (ResultFolder, "write_part", ResultFolder.write_part),
+        (ch, "make_batch", ch.make_batch),
+        (ResultFolder, "write_file", ResultFolder.write_file),
     ]
     init = em.MujocoEngine.__init__
 
@@ -98,8 +99,8 @@ def profile_sweep(spec, n, out, chunk=None):
     stats.finalize = timed("stats.finalize (main thread)", stats.finalize)
     em.MujocoEngine.run = timed("engine.run (wall)", em.MujocoEngine.run)
     em.MujocoEngine.__init__ = engine_init
-    sw.make_batch = timed("make_batch (wall)", sw.make_batch)
-    ResultFolder.write_part = timed("Parquet part writes (wall)", ResultFolder.write_part)
+    ch.make_batch = timed("make_batch (wall)", ch.make_batch)
+    ResultFolder.write_file = timed("Parquet part writes (wall)", ResultFolder.write_file)
     try:
         cpu0 = time.process_time()
         s = sw.run_sweep(spec, out=out, backend="mujoco", limit=n, chunk_size=chunk, overwrite=True, progress=False)

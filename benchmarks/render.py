@@ -157,7 +157,10 @@ def main():
         "",
     ]
     for f in sorted((HERE / "results").glob("*.json")):
-        if any(k in f.name for k in ("scaling", "stages", "profile", "overhead", "mainjob", "contact-cost", "largest")):
+        if any(
+            k in f.name
+            for k in ("scaling", "stages", "profile", "overhead", "mainjob", "contact-cost", "largest", "ray-gpus")
+        ):
             continue
         d = json.loads(f.read_text())
         out += [bench_table(d), ""]

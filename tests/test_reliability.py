@@ -179,6 +179,25 @@ def test_truncated_part_is_named_by_load_and_rerun_by_resume(tmp_path, capsys):
     assert batchveh.load(tmp_path / "r").equals(full)
 
 
+def test_a_uri_output_is_written_checked_and_resumed_through_pyarrow_fs(tmp_path, capsys):
+    """Issue 13: an output URI (file:// here; s3:// goes the same way through pyarrow.fs) behaves as a path."""
+    path = _spec(tmp_path)
+    uri = (tmp_path / "u").as_uri()
+    argv = [str(path), "--backend", "mujoco", "--chunk-size", "1", "--quiet"]
+    assert main([*argv, "--out", str(tmp_path / "p")]) == 0
+    assert main([*argv, "--out", uri]) == 0
+    assert main([*argv, "--out", uri]) == 3  # results there: never overwritten silently
+    assert batchveh.load(uri).equals(batchveh.load(tmp_path / "p"))
+    part = tmp_path / "u" / "part-00001.parquet"
+    part.write_bytes(part.read_bytes()[:200])
+    with pytest.raises(batchveh.ResultError, match=f"{uri}/part-00001.parquet: .*truncated"):
+        batchveh.load(uri)
+    capsys.readouterr()
+    assert main([*argv, "--out", uri, "--resume"]) == 0
+    assert f"{uri}/part-00001.parquet" in capsys.readouterr().err
+    assert batchveh.load(uri).equals(batchveh.load(tmp_path / "p"))
+
+
 # --- 5. YAML 1.2 numbers ------------------------------------------------------------------------------
 
 

@@ -1,0 +1,162 @@
+"""One chunk of a sweep, from its rows of the variant table to its Parquet part table.
+
+`ChunkRunner` is what runs chunks, in the sweep's own process or in a Ray worker
+(`batchveh.cluster`): it builds the engine once, so each process compiles once, and
+`run(c)` turns chunk number `c` into the part's table, with units on the columns and
+the spec, versions, device and timings in the file metadata. It also says what the
+result folder's manifest records about it (`manifest`), which a resume must match.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import time
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+
+from batchveh import stats
+from batchveh.batch import apply_solver, make_batch
+from batchveh.config import ConfigError
+from batchveh.params import parameter_specs
+from batchveh.results import part_table
+from batchveh.spec import SweepSpec
+
+TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match it
+
+
+class ChunkRunner:
+    """Chunks of `n` variants of `spec` on one engine, built once.
+
+    `chunk_size` None: the engine's automatic size for `n / workers` variants, so that a sweep
+    spread over `workers` processes has at least one chunk for each. `nthread`: MuJoCo C threads
+    (0: the engine's default). Raises ConfigError, naming the spec file, for a setting the
+    backend cannot run."""
+
+    def __init__(
+        self,
+        spec: SweepSpec,
+        backend: str,
+        n: int,
+        chunk_size: int | None = None,
+        *,
+        workers: int = 1,
+        nthread: int = 0,
+    ):
+        from batchveh.engines import make_engine, resolve_backend
+
+        self.spec, self.n = spec, n
+        self.backend = resolve_backend(backend)
+        self.cfg = spec.stats_config()
+        try:
+            self.engine = make_engine(
+                self.backend,
+                spec.scenario,
+                self.cfg,
+                chunk_size or spec.chunk_size,
+                n_variants=-(-n // workers),
+                precision=spec.precision,
+                nthread=nthread,
+            )
+        except ConfigError as err:  # a setting the backend cannot run: name the file
+            raise ConfigError(f"{spec.where}: {err}") from None
+        self.chunk = self.engine.chunk_size
+        self.n_chunks = -(-n // self.chunk)
+        self.table = spec.table()
+        specs = parameter_specs(spec.vehicle)
+        self.param_units = {k: specs[k].get("unit", "") for k in spec.params}
+        engine_meta = {"implementation": self.engine.implementation, "solver": solver_settings(spec)}
+        self.manifest = {
+            "spec": spec.raw,
+            "n_variants": n,
+            "chunk_size": self.chunk,
+            "backend": self.backend,
+            "precision": spec.precision,
+            "table_version": TABLE_VERSION,
+            "settle_time": spec.scenario.settle_time,  # the default may change: a resume must match it
+            **engine_meta,
+        }
+        self.device = device(self.backend, getattr(self.engine, "nthread", None))
+        self.meta = {
+            "spec": spec.raw,
+            "versions": versions(),
+            "device": self.device,
+            "backend": self.backend,
+            **engine_meta,
+            "precision": spec.precision,
+            "window_s": [self.cfg.window_start, self.cfg.window_end],
+            "lowpass_s": self.cfg.lowpass_s,
+            "p95_stride": self.cfg.stride,
+            "time_step": spec.scenario.time_step,
+            "total_time": spec.scenario.total_time,
+        }
+
+    def size(self, c: int) -> int:
+        """Variants in chunk `c` (the last one may be short)."""
+        return min(self.chunk, self.n - c * self.chunk)
+
+    def run(self, c: int) -> pa.Table:
+        """Chunk `c`'s rows: the variant table's rows, then the statistics columns and `status`."""
+        spec = self.spec
+        rows = self.table.rows(c * self.chunk, c * self.chunk + self.size(c))
+        t0 = time.perf_counter()
+        batch = make_batch(spec.vehicle, spec.scenario, {k: rows[k].to_numpy() for k in spec.params}, spec.params)
+        apply_solver(batch.model, spec.solver)
+        res = self.engine.run(batch)
+        cols = {k: np.asarray(v) for k, v in res.items() if k != "status_code"}
+        cols["status"] = [stats.STATUS[int(s)] for s in np.asarray(res["status_code"])]
+        frame = pd.concat([rows.reset_index(drop=True), pd.DataFrame(cols)], axis=1)
+        meta = {
+            **self.meta,
+            "chunk": c,
+            "chunk_wall_s": time.perf_counter() - t0,
+            "compile_s": self.engine.compile_s,
+        }
+        return part_table(frame, self.param_units, meta)
+
+
+def versions() -> dict[str, str]:
+    import jax
+    import mujoco
+
+    from batchveh import __version__
+
+    return {
+        "batchveh": __version__,
+        "mujoco": mujoco.__version__,
+        "jax": jax.__version__,
+        "python": platform.python_version(),
+    }
+
+
+def device(backend: str, threads: int | None = None) -> str:
+    """The devices a chunk runs on, in words; `threads`: MuJoCo C's threads (default: every CPU)."""
+    if backend in ("mjx", "warp"):
+        import jax
+
+        devs = jax.devices()[: 1 if backend == "warp" else None]
+        return f"{len(devs)} x {devs[0].device_kind} ({devs[0].platform})"
+    threads = threads or os.cpu_count() or 1
+    return f"{threads} CPU thread{'s' * (threads > 1)} ({platform.processor() or platform.machine()})"
+
+
+def solver_settings(spec: SweepSpec) -> dict[str, Any]:
+    """The constraint solver and contact options every variant runs with (MuJoCo's names)."""
+    import mujoco
+
+    from batchveh.batch import model_for
+
+    m = model_for(spec.vehicle, spec.scenario)
+    apply_solver(m, spec.solver)
+    return {
+        "solver": mujoco.mjtSolver(m.opt.solver).name.removeprefix("mjSOL_").lower(),
+        "iterations": int(m.opt.iterations),
+        "ls_iterations": int(m.opt.ls_iterations),
+        "tolerance": float(m.opt.tolerance),
+        "cone": mujoco.mjtCone(m.opt.cone).name.removeprefix("mjCONE_").lower(),
+        "impratio": float(m.opt.impratio),
+        "integrator": mujoco.mjtIntegrator(m.opt.integrator).name.removeprefix("mjINT_").lower(),
+    }
