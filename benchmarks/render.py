@@ -144,6 +144,30 @@ def overhead_section(d, name):
     return "\n".join(lines)
 
 
+def ray_section(d, name):
+    """The in-process sweep against Ray workers, side by side (benchmarks/ray_gpus.py)."""
+    hours = ", ".join(f"{s / 3600:.2f} h on {n}" for n, s in d["ten_million_x_2100_steps_s"].items())
+    out = [
+        f"## In-process against Ray: {d['machine']}, backend {d['backend']}",
+        "",
+        f"Command: `{d['command'].split(' --note')[0]}`, {d['date']}. {d['note']}",
+        "",
+        "| executor | repeat | wall s | compile s | variant-steps/s after compile | process s | device |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | --- |",
+    ]
+    out += [
+        f"| {r['executor']} | {r['repeat']} | {r['wall_s']:.1f} | {r['compile_s']:.1f} | "
+        f"{r['rate_after_compile']:.3g} | {r['process_s']:.1f} | {r['device']} |"
+        for r in d["rows"]
+    ]
+    out += [
+        "",
+        f"Ray / in-process, best after the compile: **{d['ray_over_local']:.3f}**. 10 million variants x 2,100 "
+        f"steps at the Ray rate per worker: {hours} workers. (raw data: `benchmarks/results/{name}`)",
+    ]
+    return "\n".join(out)
+
+
 def main():
     out = [
         (HERE / "NOTES.md").read_text().rstrip(),
@@ -239,6 +263,8 @@ def main():
             else:
                 out.append(f"| {r['variants']:,} | {r['rate']:.3g} | {r['peak_mem_gb']:.1f} | ok |")
         out += ["", f"(raw data: `benchmarks/results/{f.name}`)", ""]
+    for f in sorted((HERE / "results").glob("*ray-gpus*.json")):
+        out += [ray_section(json.loads(f.read_text()), f.name), ""]
     scaling = sorted((HERE / "results").glob("*scaling*.json"))
     if scaling:
         out += [
