@@ -297,12 +297,14 @@ def mission_controls(sc: Scenario, p: Mapping[str, Any], t):
     of each one's change from the previous targets, each reached by a smooth step.
 
     Between a straight line and an Ackermann turn while moving, the curvature and the speed are
-    blended instead, and the wheels follow the Ackermann geometry of each instant. Wherever the steering turns, each wheel
-    also rolls at the speed its centre moves about the offset steering axis, -sy offset dalpha/dt
-    / r (`scenarios.axis_roll`; at a standstill only the contact's width then scrubs, as in
-    `steer_in_place_rolling`); a steer segment with `roll: false` holds its wheels instead (they
-    are dragged round, as in the seed's scenario 2). Measured on the turn of sweeps/mission.yaml
-    (50 kg, mu 0.9, 2 km/h into a 2 m radius over 1 s; MuJoCo C): peak drive torque 104 N m with
+    blended instead, and the wheels follow the Ackermann geometry of each instant. Wherever the
+    steering turns, each wheel also rolls at the speed its centre moves about the offset steering
+    axis, -sy offset dalpha/dt / r (`scenarios.axis_roll`; at a standstill only the contact's
+    width then scrubs, as in `steer_in_place_rolling`); a steer segment with `roll: false` holds
+    its wheels instead (they are dragged round, as in the seed's scenario 2).
+
+    Measured on the turn of sweeps/mission.yaml (50 kg, mu 0.9, 2 km/h into a 2 m radius over
+    1 s; MuJoCo C): peak drive torque 104 N m with
     the angles and speeds blended and no axis roll, 97 N m with the curvature blended, 19 N m with
     both (the front/rear preload left from the climb, 17.6 N m); the steady turn needs 3.2 N m."""
     m = mission_of(sc)

@@ -20,7 +20,9 @@ Windows and filters (all recorded in the Parquet metadata):
   window has fewer steps);
 - `lowpass_s`: time constant of a first-order low-pass filter applied to each
   torque before `peak_lp` (default 0.05 s: a motor and its drive respond to
-  tens of ms, not to one 5 ms step, and the filter removes float32 chatter).
+  tens of ms, not to one 5 ms step, and the filter removes float32 chatter);
+- a mission (`StatsConfig.mission`): its statistics over the whole mission and each segment,
+  folded by `mission_stats` in the same carry, after the filter.
 """
 
 from __future__ import annotations
