@@ -93,6 +93,8 @@ class ChunkRunner:
             "time_step": spec.scenario.time_step,
             "total_time": spec.scenario.total_time,
         }
+        if self.cfg.mission is not None:  # each span's law times in s: 'mission' and the segments
+            self.meta["mission_spans_s"] = self.cfg.mission.times()
 
     def size(self, c: int) -> int:
         """Variants in chunk `c` (the last one may be short)."""

@@ -16,6 +16,10 @@ motors:
 Checks per variant, on the worst of the four drive motors: the steady-window RMS torque
 against the continuous torque; the whole-run low-pass peak (`peak_lp_all`) against the
 torque limit at that speed; the wheel speed against the maximum speed.
+
+`check_mission` does the same against a mission's duty cycle (`batchveh.missions`): the RMS
+over the mission (or one segment) against the continuous torque, the mission's low-pass peak
+against the peak torque, reported at the wheel and at the motor shaft.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ import pandas as pd
 from batchveh.config import ConfigError, field, from_mapping, load_yaml
 
 WHEELS = ("drive_lf", "drive_rf", "drive_lr", "drive_rr")
+GROUPS = {"drive": WHEELS, "steer": ("steer_lf", "steer_rf", "steer_lr", "steer_rr")}
 
 
 @dataclass(frozen=True)
@@ -81,6 +86,49 @@ def check(df: pd.DataFrame, motor: Motor) -> pd.DataFrame:
     out["fits_continuous"] = out.shaft_rms <= motor.continuous_torque
     out["fits_peak"] = out.shaft_peak <= motor.torque_limit(out.shaft_speed)
     out["fits_speed"] = out.shaft_speed <= motor.max_speed
+    out["fits"] = out.fits_continuous & out.fits_peak & out.fits_speed
+    return out
+
+
+def check_mission(df: pd.DataFrame, motor: Motor, span: str = "mission", group: str = "drive") -> pd.DataFrame:
+    """Per-variant mission torques against `motor`, at the wheel and at the motor shaft (fits_*).
+
+    On the worst of the group's four motors ('drive' or 'steer') over `span` ('mission', the whole
+    duty cycle, or a segment's prefix such as 'seg2_climb'):
+    - continuous: the RMS torque (`<span>_<motor>_rms`) against continuous_torque;
+    - peak: the low-pass peak (`<span>_<motor>_peak_lp`) against the torque limit at the span's peak
+      speed (`<span>_<motor>_speed_peak`): conservative, as if the peak torque came at the top speed;
+    - speed: that peak speed against max_speed.
+    At the wheel (N m, rad/s): the torques as simulated, against the motor's ratings through the
+    gearbox (torque x gear_ratio x efficiency, speed / gear_ratio). At the shaft: the torques
+    / (gear_ratio x efficiency) and the speed x gear_ratio, against the ratings themselves."""
+    if group not in GROUPS:
+        raise ConfigError(f"group: {group!r} is not allowed; allowed: {', '.join(GROUPS)}")
+    names = GROUPS[group]
+    missing = [
+        f"{span}_{m}_{s}" for m in names for s in ("rms", "peak_lp", "speed_peak") if f"{span}_{m}_{s}" not in df
+    ]
+    if missing:
+        spans = sorted({c.removesuffix("_drive_lf_rms") for c in df.columns if c.endswith("_drive_lf_rms")})
+        raise ConfigError(
+            f"span: {span!r} has no column {missing[0]} (not a mission result, or another span); "
+            f"allowed: {', '.join(s for s in spans if s.startswith(('mission', 'seg'))) or 'a mission result'}"
+        )
+    through = motor.gear_ratio * motor.efficiency  # wheel torque per shaft torque
+    out = pd.DataFrame(index=df.index)
+    out["wheel_rms"] = df[[f"{span}_{m}_rms" for m in names]].abs().max(axis=1)
+    out["wheel_peak"] = df[[f"{span}_{m}_peak_lp" for m in names]].abs().max(axis=1)
+    out["wheel_speed_peak"] = df[[f"{span}_{m}_speed_peak" for m in names]].abs().max(axis=1)
+    out["shaft_rms"] = out.wheel_rms / through
+    out["shaft_peak"] = out.wheel_peak / through
+    out["shaft_speed_peak"] = out.wheel_speed_peak * motor.gear_ratio
+    shaft_limit = motor.torque_limit(out.shaft_speed_peak)
+    out["wheel_continuous_rating"] = motor.continuous_torque * through
+    out["wheel_peak_limit"] = shaft_limit * through
+    out["wheel_max_speed"] = motor.max_speed / motor.gear_ratio
+    out["fits_continuous"] = out.shaft_rms <= motor.continuous_torque
+    out["fits_peak"] = out.shaft_peak <= shaft_limit
+    out["fits_speed"] = out.shaft_speed_peak <= motor.max_speed
     out["fits"] = out.fits_continuous & out.fits_peak & out.fits_speed
     return out
 

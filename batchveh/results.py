@@ -34,6 +34,7 @@ import pyarrow as pa
 import pyarrow.fs as pafs
 import pyarrow.parquet as pq
 
+from batchveh import mission_stats
 from batchveh.config import ConfigError
 from batchveh.stats import CHANNELS
 from batchveh.storage import file_sha256, filesystem, parquet_bytes, write_atomic
@@ -100,6 +101,9 @@ def column_doc(name: str, param_units: dict[str, str]) -> tuple[str, str]:
         return _OTHER_DOC[name]
     if name in param_units:
         return param_units[name], "swept parameter"
+    mission = mission_stats.column_doc(name)  # '<span>_<motor>_<stat>' of a mission
+    if mission is not None:
+        return mission
     for ch in CHANNELS:
         if name.startswith(ch + "_"):
             unit, doc = _STAT_DOC[name[len(ch) + 1 :]]

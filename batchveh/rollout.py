@@ -21,6 +21,7 @@ import numpy as np
 
 from batchveh import stats
 from batchveh.batch import import_mjx, servo_damping
+from batchveh.missions import body_forces_fn
 from batchveh.scenarios import Scenario, control_schedule, controls_fn
 from batchveh.vehicle import Layout, layout
 
@@ -42,6 +43,7 @@ def float_precision(name: str):
 
 def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: Layout, body_out):
     ctrl_fn = controls_fn(scenario)
+    forces_fn = body_forces_fn(scenario)  # a mission's slope in time; None otherwise
     dt = model.opt.timestep
 
     damping = servo_damping(params, scenario.towing, xp=jnp)
@@ -49,6 +51,8 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
     def body(carry, i):
         d, acc = carry
         ctrl = ctrl_fn(params, i * dt).astype(d.ctrl.dtype)
+        if forces_fn is not None:
+            d = d.replace(xfrc_applied=forces_fn(params, model.body_mass, i * dt).astype(d.xfrc_applied.dtype))
         qvel_prev = d.qvel
         d = mjx.step(model, d.replace(ctrl=ctrl))
         dv = (d.qvel - qvel_prev)[lay.motor_dof]
@@ -133,13 +137,19 @@ def mujoco_steps(
     Before the first step the data is forwarded (for a first frame, say) and yielded with
     controls None. The same data object is yielded every time."""
     d = mujoco.MjData(m)
+    times = np.arange(n_steps) * m.opt.timestep
+    forces_fn = body_forces_fn(scenario)
     with float_precision("f64"):  # MuJoCo C is the float64 reference: so are its controls
         p = {k: np.asarray(v, np.float64) for k, v in params.items()}
-        ctrls = np.asarray(jax.jit(control_schedule(scenario))(p, np.arange(n_steps) * m.opt.timestep))
+        ctrls = np.asarray(jax.jit(control_schedule(scenario))(p, times))
+        if forces_fn is not None:
+            forces = np.asarray(jax.jit(jax.vmap(forces_fn, in_axes=(None, None, 0)))(p, m.body_mass, times))
     mujoco.mj_forward(m, d)
     yield d, None
     for i in range(n_steps):
         d.ctrl[:] = ctrls[i]
+        if forces_fn is not None:
+            d.xfrc_applied[:] = forces[i]
         mujoco.mj_step(m, d)
         yield d, ctrls[i]
 

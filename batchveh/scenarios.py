@@ -65,6 +65,9 @@ class Scenario:
     drive_law: str = "smooth_step"  # steer_in_place keeps the seed's ramp (SCENARIOS)
     towing: tuple[bool, bool, bool, bool] = (False, False, False, False)
     laws: dict | None = None
+    # kind mission (batchveh.missions): the segments as read, and the torque thresholds in N m
+    segments: list | None = None
+    torque_threshold: dict | None = None
 
     def validate(self, where: str = "scenario") -> None:
         """Raise ConfigError for an unknown kind or inconsistent fields."""
@@ -75,6 +78,10 @@ class Scenario:
             )
         if self.kind == "custom":
             custom_laws(self, where)
+        if self.kind == "mission" or self.segments is not None or self.torque_threshold is not None:
+            from batchveh.missions import check_mission
+
+            check_mission(self, where)
         if self.time_step > self.total_time:
             raise ConfigError(f"{where}.time_step: {self.time_step!r} exceeds total_time {self.total_time!r}")
         st = self.settle_time
@@ -136,6 +143,12 @@ def _offset(p):
     return p["wheel.y_cg"] - p["chassis.width"] / 2
 
 
+def axis_roll(p, steer_rate):
+    """Wheel speeds (4,) in rad/s that roll each wheel centre about its offset steering axis as the
+    steering turns at `steer_rate` (4,) rad/s: the centre moves at offset * steer_rate."""
+    return -_SY * _offset(p) * steer_rate / p["wheel.radius"]
+
+
 def straight_line(sc, p, t):
     """Seed scenario 1: all wheels ramp to the target speed; no steering."""
     w = _drive(sc, _omega(p), p, t)
@@ -153,7 +166,7 @@ def steer_in_place(sc, p, t):
     """
     target = jnp.deg2rad(p["steer_deg"]) * jnp.array([-1.0, 1.0, 1.0, -1.0])
     alpha = laws.ramp(t, 0.0 * target, target, p["ramp_time"])
-    roll = -_SY * _offset(p) * (target / jnp.maximum(p["ramp_time"], 1e-12)) / p["wheel.radius"]
+    roll = axis_roll(p, target / jnp.maximum(p["ramp_time"], 1e-12))
     return _drive(sc, roll, p, t), alpha
 
 
@@ -173,7 +186,7 @@ def steer_in_place_rolling(sc, p, t):
     target = jnp.deg2rad(p["steer_deg"]) * jnp.array([-1.0, 1.0, 1.0, -1.0])
     duration = jnp.maximum(p["ramp_time"], 1e-12)
     alpha = laws.ramp(t, 0.0 * target, target, p["ramp_time"])
-    roll = -_SY * _offset(p) * (target / duration) / p["wheel.radius"]
+    roll = axis_roll(p, target / duration)
     turning = (t > 0.0) & (t <= p["ramp_time"])
     return jnp.where(turning, roll, 0.0 * roll), alpha
 
@@ -185,29 +198,42 @@ def crab(sc, p, t):
     return jnp.ones(4) * w, alpha
 
 
-def pivot(sc, p, t):
-    """Turn on the spot: steer tangent to a circle about the centre, then yaw at yaw_rate_dps."""
+def pivot_targets(p, yaw_rate_dps):
+    """(wheel speeds (4,) rad/s, steering angles (4,) rad) of a turn on the spot at yaw_rate_dps
+    (deg/s, >0 counter-clockwise): each wheel tangent to a circle about the centre."""
     ax, ay = _axes(p)
     alpha_t = -_SX * _SY * jnp.arctan2(jnp.abs(ax), jnp.abs(ay))
     rho = jnp.hypot(ax, ay) + _offset(p)  # wheel centre lies on the radial line through its axis
-    omega_t = -_SY * jnp.deg2rad(p["yaw_rate_dps"]) * rho / p["wheel.radius"]
+    return -_SY * jnp.deg2rad(yaw_rate_dps) * rho / p["wheel.radius"], alpha_t
+
+
+def pivot(sc, p, t):
+    """Turn on the spot: steer tangent to a circle about the centre, then yaw at yaw_rate_dps."""
+    omega_t, alpha_t = pivot_targets(p, p["yaw_rate_dps"])
     alpha = laws.ramp(t, 0.0 * alpha_t, alpha_t, p["ramp_time"])
     w = laws.ramp(t, 0.0 * omega_t, omega_t, p["ramp_time"], delay=p["ramp_time"])
     return w, alpha
 
 
-def ackermann(sc, p, t):
-    """Turn about a centre on the rear axle line at turn_radius (>0 left): front wheels steer, all roll."""
+def ackermann_targets(p, curvature, speed_kmh):
+    """(wheel speeds (4,) rad/s, steering angles (4,) rad) of a turn about a centre on the rear axle
+    line at radius 1 / curvature (curvature in 1/m, >0 left; 0 drives straight), the chassis centre
+    at speed_kmh: the rear wheels steer 0, each wheel rolls at its own distance from the centre."""
     ax, ay = _axes(p)
-    radius = p["turn_radius"]
     xc = -p["chassis.length"] / 2
-    alpha_t = jnp.arctan((ax - xc) / (radius - ay))
-    # wheel centres after steering, and their distance to the turn centre
+    alpha_t = jnp.arctan((ax - xc) * curvature / (1.0 - ay * curvature))
+    # wheel centres after steering; distance to the turn centre and yaw rate, both times the curvature
     wx = ax - jnp.sin(alpha_t) * _SY * _offset(p)
     wy = ay + jnp.cos(alpha_t) * _SY * _offset(p)
-    dist = jnp.hypot(wx - xc, wy - radius)
-    yaw = (p["speed_kmh"] / 3.6) / (jnp.sign(radius) * jnp.hypot(xc, radius))
-    omega_t = jnp.abs(yaw) * dist / p["wheel.radius"] * jnp.sign(p["speed_kmh"])
+    dist_k = jnp.hypot((wx - xc) * curvature, wy * curvature - 1.0)
+    return jnp.abs(speed_kmh / 3.6) * dist_k / jnp.hypot(xc * curvature, 1.0) / p["wheel.radius"] * jnp.sign(
+        speed_kmh
+    ), alpha_t
+
+
+def ackermann(sc, p, t):
+    """Turn about a centre on the rear axle line at turn_radius (>0 left): front wheels steer, all roll."""
+    omega_t, alpha_t = ackermann_targets(p, 1.0 / p["turn_radius"], p["speed_kmh"])
     alpha = laws.ramp(t, 0.0 * alpha_t, alpha_t, p["ramp_time"])
     w = laws.ramp(t, 0.0 * omega_t, omega_t, p["ramp_time"], delay=p["ramp_time"])
     return w, alpha
@@ -246,6 +272,13 @@ def custom(sc, p, t):
     return jnp.stack(vals[:4]), jnp.stack(vals[4:])
 
 
+def mission(sc, p, t):
+    """A duty cycle: segments one after another (batchveh.missions)."""
+    from batchveh.missions import mission_controls
+
+    return mission_controls(sc, p, t)
+
+
 def manual(sc, p, t):
     """Seed scenario 0, 'manual inputs': like straight_line, every field from the config."""
     return straight_line(sc, p, t)
@@ -261,6 +294,7 @@ SCENARIOS: dict[str, tuple[Controls, dict[str, Any]]] = {
     "pivot": (pivot, {"total_time": 8.0, "ramp_time": 2.0}),
     "steer_in_place_rolling": (steer_in_place_rolling, {"total_time": 3.0}),
     "custom": (custom, {}),
+    "mission": (mission, {}),
 }
 
 
@@ -318,7 +352,7 @@ def check_kind(kind: Any, prefix: str = "", what: str = "not known") -> None:
 def make_scenario(kind: str = "straight_line", **overrides: Any) -> Scenario:
     """A registered scenario with its own defaults, then `overrides`."""
     check_kind(kind)
-    sc = Scenario(kind=kind, **{**SCENARIOS[kind][1], **overrides})
+    sc = Scenario(kind=kind, **_mission_time({**SCENARIOS[kind][1], **overrides}, kind, "scenario"))
     sc.validate()
     return sc
 
@@ -336,7 +370,16 @@ def scenario_from_mapping(data: Mapping[str, Any], where: str) -> Scenario:
                 f"in m/s^2 or one of {', '.join(GRAVITY_PRESETS)}"
             )
         data["gravity"] = GRAVITY_PRESETS[g]
-    return from_mapping(Scenario, {"kind": kind, **SCENARIOS[kind][1], **data}, where)
+    return from_mapping(Scenario, {"kind": kind, **SCENARIOS[kind][1], **_mission_time(data, kind, where)}, where)
+
+
+def _mission_time(fields: dict[str, Any], kind: str, where: str) -> dict[str, Any]:
+    """A mission's total_time is the sum of its segments' durations: filled in where not given."""
+    if kind != "mission" or "total_time" in fields:
+        return fields
+    from batchveh.missions import mission_duration
+
+    return {**fields, "total_time": mission_duration(fields, where)}
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:

@@ -20,7 +20,9 @@ Windows and filters (all recorded in the Parquet metadata):
   window has fewer steps);
 - `lowpass_s`: time constant of a first-order low-pass filter applied to each
   torque before `peak_lp` (default 0.05 s: a motor and its drive respond to
-  tens of ms, not to one 5 ms step, and the filter removes float32 chatter).
+  tens of ms, not to one 5 ms step, and the filter removes float32 chatter);
+- a mission (`StatsConfig.mission`): its statistics over the whole mission and each segment,
+  folded by `mission_stats` in the same carry, after the filter.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from batchveh import mission_stats
 from batchveh.config import ConfigError
 from batchveh.vehicle import CORNERS, MOTORS
 
@@ -59,6 +62,7 @@ class StatsConfig:
     lowpass_s: float = 0.05
     p95_samples: int = 256
     settle_steps: int = 0  # the first steps, left out of every statistic
+    mission: mission_stats.MissionStatsConfig | None = None  # a mission's spans (scenario kind mission)
 
     @staticmethod
     def make(
@@ -90,7 +94,8 @@ class StatsConfig:
 
     @staticmethod
     def for_scenario(scenario: Any, window: tuple[float, float] | None = None, **kw: Any) -> StatsConfig:
-        """`make` for a scenario's steps and settle (a scenarios.Scenario)."""
+        """`make` for a scenario's steps and settle (a scenarios.Scenario), with a mission's spans."""
+        kw.setdefault("mission", mission_stats.MissionStatsConfig.for_scenario(scenario))
         return StatsConfig.make(scenario.time_step, scenario.n_steps, window, scenario.settle_steps, **kw)
 
     @property
@@ -136,6 +141,7 @@ def sample(qpos, qvel, qfrc_actuator, ctrl, wheel_radius, lay, damping=None, mot
     return {
         "tau": tau,
         "omega": omega,
+        "rate": qvel[..., lay.motor_dof],  # the 8 motor joints' speeds
         "rim": omega.mean(-1) * wheel_radius,
         "alpha": qpos[..., lay.motor_qpos[4:]],
         "ref": ctrl[..., :8],
@@ -152,7 +158,9 @@ def init(cfg: StatsConfig, batch: tuple[int, ...], xp=np, dtype=None) -> dict[st
     def z(*shape, fill=0.0):
         return xp.full((*batch, *shape), fill, dtype=dtype)
 
+    mission = {} if cfg.mission is None else {"mission": mission_stats.init(cfg.mission, batch, xp, dtype)}
     return {
+        **mission,
         "n": z(),
         "sum": z(N_CH),
         "sumsq": z(N_CH),
@@ -323,6 +331,8 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
     if span != "none":
         out["steer_err"] = _wmax(c["steer_err"], inw, xp.abs(s["alpha"] - s["ref"][..., 4:]), span, xp)
     out["pose"] = xp.stack([s["pos"][..., -1, 0], s["pos"][..., -1, 1], yaw[..., -1]], axis=-1)
+    if cfg.mission is not None:
+        out["mission"] = mission_stats.update(c["mission"], tau, abs_lp, s, i, cfg.mission, xp)
     return out
 
 
@@ -375,4 +385,6 @@ def finalize(c: dict[str, Any], cfg: StatsConfig, xp=np) -> dict[str, Any]:
         if name.startswith(CHANNELS) or name in ("distance", "mean_speed", "wheel_speed"):
             finite = finite & xp.isfinite(cols[name])
     cols["status_code"] = xp.where((c["bad"] > 0) | ~finite, 1, xp.where(flipped, 2, 0))
+    if cfg.mission is not None:
+        cols.update(mission_stats.finalize(c["mission"], cfg.mission, xp))
     return cols

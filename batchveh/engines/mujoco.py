@@ -21,6 +21,7 @@ import numpy as np
 
 from batchveh import stats
 from batchveh.batch import VariantBatch, servo_damping
+from batchveh.missions import body_forces_fn
 from batchveh.rollout import float_precision
 from batchveh.scenarios import Scenario, control_schedule
 from batchveh.vehicle import layout
@@ -84,6 +85,9 @@ class MujocoEngine:
         self.warnings: list[str] = []  # MuJoCo's messages, first few of the sweep
         # controls (n, block, nu) for a block of steps of every variant, computed by JAX
         self._ctrl = jax.jit(jax.vmap(control_schedule(scenario), in_axes=(0, None)))
+        # a mission's slope in time: xfrc_applied (n, block, nbody, 6) from each variant's body masses
+        forces = body_forces_fn(scenario)
+        self._forces = None if forces is None else jax.jit(jax.vmap(jax.vmap(forces, (None, None, 0)), (0, 0, None)))
 
     def run(self, batch: VariantBatch) -> dict[str, np.ndarray]:
         """Step the chunk in blocks; while MuJoCo steps block k on its threads, two worker threads
@@ -110,6 +114,8 @@ class MujocoEngine:
         edges = [*range(0, self.cfg.n_steps, self.block), self.cfg.n_steps]
         longest = int(max(np.diff(edges)))
         params: dict[str, jax.Array] = {}  # filled by the first controls call, off the main thread
+        body_mass = np.broadcast_to(batch.fields.get("body_mass", m.body_mass), (batch.n, m.nbody))
+        spec = mujoco.mjtState.mjSTATE_CTRL | (mujoco.mjtState.mjSTATE_XFRC_APPLIED if self._forces else 0)
 
         def controls(k):
             # float64, as MuJoCo C steps (the x64 scope is per thread: this worker's own)
@@ -121,6 +127,9 @@ class MujocoEngine:
                 # the padding changes none of the other values
                 t = np.append(steps, np.full(longest - len(steps), steps[-1])) * dt
                 ctrl = np.asarray(self._ctrl(params, jnp.asarray(t, jnp.float64)), np.float64)
+                if self._forces is not None:  # the rollout's inputs: ctrl, then xfrc_applied
+                    xfrc = np.asarray(self._forces(params, body_mass, jnp.asarray(t, jnp.float64)), np.float64)
+                    ctrl = np.concatenate([ctrl, xfrc.reshape(*xfrc.shape[:2], -1)], axis=-1)
             return steps, np.ascontiguousarray(ctrl[:, : len(steps)])
 
         def fold(acc, rec, steps, ctrls, failed, first, tile):
@@ -164,7 +173,7 @@ class MujocoEngine:
                     for r, f in flat[k % 2].items()
                 }
                 try:
-                    rec = b.rollout(len(steps), control=ctrls, record=tuple(sizes), out=out)
+                    rec = b.rollout(len(steps), control=ctrls, control_spec=spec, record=tuple(sizes), out=out)
                 except SimulationError:
                     rec = out  # failed simulations are marked below; their records repeat
                 failed = failed | (np.asarray(b.status) != 0) | (b.warning[:, UNSTABLE, 1].sum(-1) > 0)

@@ -1,0 +1,311 @@
+"""Missions (duty cycles): statistics that add up, the slope in time, bad YAML, the motor check.
+
+Tolerances (measured on 2 CPU cores; the measured value is next to each):
+"""
+
+import subprocess
+import sys
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pandas as pd
+import pytest
+from conftest import SLOPE_SUM_RTOL, slope_torque
+
+from batchveh import stats
+from batchveh.batch import make_batch
+from batchveh.engines.mjx import MjxEngine
+from batchveh.engines.mujoco import MujocoEngine
+from batchveh.missions import mission_controls, mission_slope
+from batchveh.motors import Motor, check_mission
+from batchveh.params import base_params
+from batchveh.results import metadata, units
+from batchveh.run import main as run_main
+from batchveh.scenarios import make_scenario
+from batchveh.vehicle import CORNERS, MOTORS
+
+# A mission of one straight segment against straight_line with the same law, on MuJoCo C, flat:
+# the same steps and floats; measured 3.5e-16 (relative, worst statistic)
+SAME_RUN_RTOL = 1e-12
+SAME_RUN_ATOL = 1e-12  # N m, J, m: where a statistic is about 0 (the steering motors)
+# The same on a slope, once by tilted gravity (straight_line) and once by the mission's body forces
+# on a flat model: round-off apart in the inputs, and the elliptic cone's Newton solve stops at its
+# tolerance: measured 7.6e-8 relative (drive_lf_rms), 4.7e-6 N m absolute (a steering motor)
+SLOPE_FORCE_RTOL = 1e-6
+SLOPE_FORCE_ATOL = 5e-5
+# Segments partition the mission's steps: sums over segments against the mission's, the same
+# floats added in another order; measured 4.8e-16
+PARTITION_RTOL = 1e-12
+# warp (float32) against MuJoCo C on a mission with a climb: per-motor statistics as tests/test_warp.py
+# (WHEEL_ATOL there, measured 0.048 N m); here measured 0.0032 N m at most (seg1_climb_drive_sum_peak)
+WARP_ATOL = 0.15
+SPEED_KMH, RAMP_S, SLOPE_DEG = 1.0, 0.6, 8.0
+PAYLOADS = np.array([0.0, 30.0])
+
+
+def _mission(segments, **kw):
+    return make_scenario("mission", segments=segments, friction=0.9, **kw)
+
+
+def _run(engine_cls, scenario, window=None, **kw):
+    cfg = stats.StatsConfig.for_scenario(scenario, window)
+    engine = engine_cls(scenario, cfg, len(PAYLOADS), **kw)
+    from batchveh.vehicle import Vehicle
+
+    return engine.run(make_batch(Vehicle(), scenario, {"payload.mass": PAYLOADS}))
+
+
+def _straight_kw(slope_deg):
+    return dict(slope_deg=slope_deg, friction=0.9, speed_kmh=SPEED_KMH, ramp_time=RAMP_S, total_time=RAMP_S)
+
+
+@pytest.fixture(scope="module")
+def straight():
+    """straight_line, flat and on a tilted plane, its window the whole run after the settle (MuJoCo C)."""
+    runs = {
+        s: _run(MujocoEngine, make_scenario("straight_line", **_straight_kw(s)), window=(0.0, RAMP_S))
+        for s in (0.0, SLOPE_DEG)
+    }
+    assert all(r["drive_sum_peak"].min() > 1 for r in runs.values())  # runs with torques to compare
+    return runs
+
+
+def _one_segment(slope_deg):
+    """The same run as a mission on a flat model: one accelerate segment on its own slope."""
+    return _mission([{"kind": "accelerate", "duration": RAMP_S, "slope_deg": slope_deg}], speed_kmh=SPEED_KMH)
+
+
+def _assert_mission_is_the_run(mission, run, rtol, atol):
+    for ch in (*MOTORS, "drive_sum"):
+        for stat in ("rms", "peak", "peak_lp"):
+            np.testing.assert_allclose(mission[f"mission_{ch}_{stat}"], run[f"{ch}_{stat}"], rtol, atol, err_msg=ch)
+    for corner in CORNERS:  # the net energy of a drive motor, split into driving and regenerating
+        net = mission[f"mission_drive_{corner}_energy_drive"] + mission[f"mission_drive_{corner}_energy_regen"]
+        np.testing.assert_allclose(net, run[f"drive_{corner}_energy"], rtol, atol, err_msg=corner)
+    np.testing.assert_allclose(mission["mission_distance"], run["distance"], rtol, atol)
+
+
+@pytest.mark.parametrize(
+    "slope_deg, rtol, atol", [(0.0, SAME_RUN_RTOL, SAME_RUN_ATOL), (SLOPE_DEG, SLOPE_FORCE_RTOL, SLOPE_FORCE_ATOL)]
+)
+def test_one_segment_mission_is_the_straight_line_on_mujoco_c(straight, slope_deg, rtol, atol):
+    m = _run(MujocoEngine, _one_segment(slope_deg))
+    _assert_mission_is_the_run(m, straight[slope_deg], rtol, atol)
+    # the mission's own steady-window statistics are the straight line's too (second half of the run)
+    ref = _run(MujocoEngine, make_scenario("straight_line", **_straight_kw(slope_deg)))
+    for col in ("drive_sum_mean", "drive_lf_rms", "steer_rf_peak", "slip_ratio", "final_x"):
+        np.testing.assert_allclose(m[col], ref[col], rtol, atol, err_msg=col)
+
+
+def test_one_segment_mission_on_mjx_matches(straight):
+    """MJX (JAX implementation, float64): the mission's statistics, reduced in the scan's carry and
+    sloped by the body forces, are the straight line's of MuJoCo C on a tilted plane (measured
+    7.6e-8 relative, 4.7e-6 N m, as the mission on MuJoCo C: MJX and C missions agree to 5.1e-13).
+    One compile (16 s on 2 cores)."""
+    m = _run(MjxEngine, _one_segment(SLOPE_DEG), precision="f64")
+    _assert_mission_is_the_run(m, straight[SLOPE_DEG], SLOPE_FORCE_RTOL, SLOPE_FORCE_ATOL)
+
+
+def test_two_segments_add_up_to_the_mission():
+    """Accelerate, then stop: the energies (driving and regenerating) and the time above the
+    threshold of the two segments add up to the mission's; peaks are the larger of the two."""
+    sc = _mission(
+        [{"kind": "accelerate", "duration": 0.5, "speed_kmh": 2.0}, {"kind": "stop", "duration": 0.5}],
+        slope_deg=5.0,
+        torque_threshold={"drive": 3.0, "steer": 0.5},
+    )
+    out = _run(MujocoEngine, sc)
+    seg = ("seg0_accelerate", "seg1_stop")
+    for m in MOTORS:
+        for stat in ("energy_drive", "energy_regen", "time_above"):
+            total = out[f"{seg[0]}_{m}_{stat}"] + out[f"{seg[1]}_{m}_{stat}"]
+            np.testing.assert_allclose(total, out[f"mission_{m}_{stat}"], PARTITION_RTOL, 1e-15, err_msg=m + stat)
+        for stat in ("peak", "peak_lp", "speed_peak"):
+            both = np.maximum(out[f"{seg[0]}_{m}_{stat}"], out[f"{seg[1]}_{m}_{stat}"])
+            np.testing.assert_array_equal(both, out[f"mission_{m}_{stat}"], err_msg=m + stat)
+        # mean squares weighted by the segments' equal step counts
+        ms = (out[f"{seg[0]}_{m}_rms"] ** 2 + out[f"{seg[1]}_{m}_rms"] ** 2) / 2
+        np.testing.assert_allclose(ms, out[f"mission_{m}_rms"] ** 2, PARTITION_RTOL, err_msg=m)
+    # something to add up: the drives work while accelerating up the slope and brake while stopping
+    # (the stop takes them back, minus what holding the slope costs), the threshold is crossed
+    assert (out["seg0_accelerate_drive_lf_energy_drive"] > 1.0).all()
+    assert (out["seg1_stop_drive_lf_energy_regen"] < -0.01).all()
+    assert (out["mission_drive_lf_time_above"] > 0.1).all() and (out["mission_drive_lf_time_above"] < 1.0).all()
+    assert "mission_drive_sum_time_above" not in out  # no threshold for the sum
+
+
+def test_climb_segment_holds_the_closed_form(vehicle):
+    """A climb inside a mission (the model flat, the slope by body forces from t = 1 s, on over
+    0.5 s): the four-wheel sum on the steady climb is m g sin(s) r, as on a tilted plane."""
+    sc = _mission(
+        [
+            {"kind": "accelerate", "duration": 1.0},
+            {"kind": "climb", "duration": 2.0, "slope_deg": 10.0, "transition": 0.5},
+        ]
+    )
+    cfg = stats.StatsConfig.for_scenario(sc, (2.0, 3.0))
+    out = MujocoEngine(sc, cfg, 1).run(make_batch(vehicle, sc, {}))
+    np.testing.assert_allclose(out["drive_sum_mean"], slope_torque(vehicle, 10), rtol=SLOPE_SUM_RTOL)  # -3.6e-3
+    # before it the ground is flat: accelerating takes about r m a_max = 11 N m, not the slope's 48
+    assert out["seg0_accelerate_drive_sum_peak"][0] < 0.5 * slope_torque(vehicle, 10)
+    # the slope's law: the first segment's (0) until 1 s, a quintic step to 10 deg by 1.5 s
+    p = base_params(vehicle, sc)
+    slope = [float(mission_slope(sc, p, t)) for t in (0.5, 1.0, 1.25, 1.5, 2.5)]
+    np.testing.assert_allclose(slope, [0.0, 0.0, 5.0, 10.0, 10.0], atol=1e-12)
+
+
+def test_controls_are_continuous_through_every_kind(vehicle):
+    """Every segment kind in one mission: wheel speeds and steering angles have no jump at any
+    boundary. Sampled at dt and dt / 2, a continuous law's largest change per sample halves; a jump
+    would keep its size."""
+    sc = make_scenario("mission", segments=_every_kind())
+    p = base_params(vehicle, sc)
+    law = jax.jit(jax.vmap(lambda tt: jnp.concatenate(mission_controls(sc, p, tt))))
+    steps = []
+    for dt in (1e-3, 5e-4):
+        u = np.asarray(law(jnp.arange(0.0, sc.total_time + 0.5, dt)), np.float64)
+        steps.append(np.abs(np.diff(u, axis=0)).max(axis=0))  # (8,): the largest change per sample
+    assert (steps[0] > 1e-4).all()  # every wheel speed and steering angle moves somewhere
+    ratio = steps[1] / steps[0]
+    assert ((ratio > 0.4) & (ratio < 0.6)).all(), ratio  # measured 0.50
+    wheel = SPEED_KMH / 3.6 / vehicle.wheel.radius
+    np.testing.assert_allclose(u[int(round(1.0 / 5e-4))][:4], wheel, rtol=1e-6)  # at speed after 1 s
+    assert np.abs(u[int(round(4.5 / 5e-4))][4:]).min() > 0.3  # the crab steers all four (20 deg)
+    np.testing.assert_allclose(u[-1][:4], 0.0, atol=1e-6)  # it ends at a standstill
+
+
+def _every_kind():
+    return [
+        {"kind": "accelerate", "duration": 1.0},
+        {"kind": "cruise", "distance": 0.1, "speed_kmh": 1.0},
+        {"kind": "climb", "duration": 1.0, "slope_deg": 5},
+        {"kind": "turn", "turn": "ackermann", "duration": 1.0, "turn_radius": 2.0},
+        {"kind": "turn", "turn": "crab", "duration": 1.0, "steer_deg": 20, "transition": 0.5},
+        {"kind": "stop", "duration": 1.0},
+        {"kind": "steer", "duration": 1.0, "steer_deg": 30},
+        {"kind": "turn", "turn": "pivot", "duration": 1.0, "yaw_rate_dps": 20},
+        {"kind": "stop", "duration": 0.5},
+    ]
+
+
+# --- bad input -------------------------------------------------------------------------------
+
+_GOOD = "  - {kind: accelerate, duration: 1}\n"
+
+
+@pytest.mark.parametrize(
+    "text, expect",
+    [
+        (f"segments:\n{_GOOD}  - {{kind: cruze, duration: 1}}\n", ["segments[1].kind", "'cruze'", "'cruise'"]),
+        (
+            f"segments:\n{_GOOD}  - {{kind: cruise, duration: -2}}\n",
+            ["segments[1].duration", "-2.0", "> 0 and <= 86400 s"],
+        ),
+        ("segments:\n  - {kind: cruise, duration: 1, turn_radius: 3}\n", ["segments[0].turn_radius", "allowed keys"]),
+        ("segments:\n  - {kind: turn, turn: skid, duration: 1}\n", ["segments[0].turn", "ackermann, crab, pivot"]),
+        (f"segments:\n{_GOOD}  - {{kind: turn, turn: pivot, duration: 2}}\n", ["segments[1]", "standstill", "stop"]),
+        ("segments:\n  - {kind: stop, duration: 1, transition: 2}\n", ["segments[0].transition", "duration 1 s"]),
+        ("segments:\n  - {kind: cruise, distance: 3}\n", ["segments[0].speed_kmh", "with distance"]),
+        (f"total_time: 5\nsegments:\n{_GOOD}", ["total_time", "5.0", "segments' total 1 s"]),
+        (f"torque_threshold: {{drive: -1}}\nsegments:\n{_GOOD}", ["torque_threshold.drive", "> 0 N m"]),
+        ("segments: 3\n", ["segments", "non-empty list"]),
+    ],
+)
+def test_bad_mission_yaml(tmp_path, capsys, text, expect):
+    path = tmp_path / "mission.yaml"
+    path.write_text("kind: mission\n" + text)
+    code = run_main([str(path), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1, err
+    assert str(path) in err
+    for part in expect:
+        assert part in err, (part, err)
+
+
+def test_segments_belong_to_missions(tmp_path, capsys):
+    path = tmp_path / "sc.yaml"
+    path.write_text(f"kind: straight_line\nsegments:\n{_GOOD}")
+    assert run_main([str(path)]) == 2
+    assert "allowed only with kind: mission" in capsys.readouterr().err
+
+
+def test_bad_mission_in_a_sweep_spec_exits_2_without_traceback(tmp_path):
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(
+        "name: m\nscenario:\n  kind: mission\n  segments:\n    - {kind: acelerate, duration: 1}\n"
+        "sweep: {params: {friction: [0.5]}}\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-m", "batchveh.sweep", str(spec), "--dry-run"], capture_output=True, text=True, timeout=300
+    )
+    lines = [ln for ln in out.stderr.splitlines() if ln.strip() and "warp" not in ln]
+    assert out.returncode == 2 and len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
+    assert "segments[0].kind" in lines[0] and "'accelerate'" in lines[0] and str(spec) in lines[0]
+
+
+# --- the example sweep, its columns and the motor check ------------------------------------------
+
+
+def test_example_mission_sweep_writes_units_and_spans(tmp_path):
+    from batchveh.spec import load_spec
+    from batchveh.sweep import run_sweep
+
+    summary = run_sweep(load_spec("sweeps/mission.yaml"), out=tmp_path / "m", limit=1, progress=False)
+    assert summary["ok"] == 1
+    u = units(tmp_path / "m")
+    assert u["mission_drive_lf_rms"] == "N m" and u["seg2_climb_drive_sum_peak_lp"] == "N m"
+    assert u["seg2_climb_drive_lf_energy_drive"] == "J" and u["mission_steer_rr_time_above"] == "s"
+    assert u["seg7_turn_steer_lf_speed_peak"] == "rad/s" and u["seg1_cruise_distance"] == "m"
+    spans = metadata(tmp_path / "m")["mission_spans_s"]
+    assert spans["mission"] == pytest.approx([0.0, 25.1]) and spans["seg1_cruise"] == pytest.approx([2.0, 5.6])
+
+
+def _mission_frame(span, rms, peak, speed):
+    cols = {}
+    for m in ("drive_lf", "drive_rf", "drive_lr", "drive_rr"):
+        cols[f"{span}_{m}_rms"] = rms
+        cols[f"{span}_{m}_peak_lp"] = peak
+        cols[f"{span}_{m}_speed_peak"] = speed
+    return pd.DataFrame(cols)
+
+
+def test_mission_motor_check_at_wheel_and_motor_by_hand():
+    motor = Motor(
+        continuous_torque=1.0, peak_torque=3.0, corner_speed=200, max_speed=400, gear_ratio=10, efficiency=0.8
+    )
+    # through the gearbox a wheel sees 8 N m per shaft N m: rated 8 N m continuous, 24 N m peak.
+    # rows: wheel rms 6 / 9 / 6 N m (shaft 0.75 / 1.125 / 0.75), wheel peak 20 / 20 / 20 N m (shaft
+    # 2.5), peak wheel speed 10 / 10 / 30 rad/s (shaft 100 / 100 / 300 rad/s: at 300 the limit is
+    # 3 * 200 / 300 = 2 N m at the shaft, 16 N m at the wheel)
+    df = _mission_frame("seg3_climb", [6.0, 9.0, 6.0], [20.0, 20.0, 20.0], [10.0, 10.0, 30.0])
+    c = check_mission(df, motor, span="seg3_climb")
+    np.testing.assert_allclose(c.wheel_rms, [6.0, 9.0, 6.0])
+    np.testing.assert_allclose(c.shaft_rms, [0.75, 1.125, 0.75])
+    np.testing.assert_allclose(c.shaft_peak, [2.5, 2.5, 2.5])
+    np.testing.assert_allclose(c.shaft_speed_peak, [100.0, 100.0, 300.0])
+    np.testing.assert_allclose(c.wheel_continuous_rating, 8.0)
+    np.testing.assert_allclose(c.wheel_peak_limit, [24.0, 24.0, 16.0])
+    np.testing.assert_allclose(c.wheel_max_speed, 40.0)
+    assert list(c.fits_continuous) == [True, False, True]
+    assert list(c.fits_peak) == [True, True, False]
+    assert list(c.fits) == [True, False, False]
+    with pytest.raises(Exception, match="span: 'mission' has no column mission_drive_lf_rms"):
+        check_mission(df, motor)
+
+
+@pytest.mark.slow
+def test_mission_on_warp_matches_mujoco_c():
+    """The warp engine (float32) steps the same mission, its slope by the same body forces (about
+    25 s on 2 CPU cores with Warp's kernels cached)."""
+    from batchveh.engines.warp import WarpEngine
+
+    sc = _mission(
+        [{"kind": "accelerate", "duration": 0.5}, {"kind": "climb", "duration": 1.0, "slope_deg": 10.0}],
+        torque_threshold={"drive": 10.0},
+    )
+    c, w = _run(MujocoEngine, sc), _run(WarpEngine, sc)
+    assert (c["seg1_climb_drive_sum_peak"] > 40).all()  # the slope is on by the end (48 N m)
+    for col in c:
+        if col.startswith(("mission_", "seg")):
+            np.testing.assert_allclose(w[col], c[col], atol=WARP_ATOL, err_msg=col)
