@@ -133,11 +133,18 @@ def check_mission(df: pd.DataFrame, motor: Motor, span: str = "mission", group: 
     return out
 
 
-def smallest(df: pd.DataFrame, catalogue: list[Motor]) -> tuple[Motor | None, pd.DataFrame]:
-    """The motor with the lowest continuous torque that fits every row, and a per-motor summary."""
+def smallest(
+    df: pd.DataFrame, catalogue: list[Motor], span: str | None = None
+) -> tuple[Motor | None, pd.DataFrame]:
+    """The motor with the lowest continuous torque that fits every row, and a per-motor summary.
+
+    `span`: None checks the usual columns (`check`: the steady window's RMS, the whole run's
+    peaks); a mission span ('mission', or a segment's prefix such as 'seg2_climb') checks the
+    mission's columns over it (`check_mission`)."""
     rows: list[dict[str, Any]] = []
+    checks = {m.name: check(df, m) if span is None else check_mission(df, m, span) for m in catalogue}
     for m in catalogue:
-        c = check(df, m)
+        c = checks[m.name]
         rows.append(
             {
                 "motor": m.name,
@@ -152,5 +159,5 @@ def smallest(df: pd.DataFrame, catalogue: list[Motor]) -> tuple[Motor | None, pd
             }
         )
     summary = pd.DataFrame(rows).sort_values("continuous_torque").reset_index(drop=True)
-    fitting = [m for m in sorted(catalogue, key=lambda m: m.continuous_torque) if check(df, m).fits.all()]
+    fitting = [m for m in sorted(catalogue, key=lambda m: m.continuous_torque) if checks[m.name].fits.all()]
     return (fitting[0] if fitting else None), summary

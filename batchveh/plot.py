@@ -214,6 +214,67 @@ def operating_points(df: pd.DataFrame, name: str, motor) -> plt.Figure:
     return fig
 
 
+def mission_trace(series: pd.DataFrame, mission, group: str = "drive", title: str = "") -> plt.Figure:
+    """A mission's motor torques against time (one run's series, batchveh.run.simulate), each
+    segment shaded and named (`mission`: batchveh.missions.Mission, e.g. missions.mission_of)."""
+    fig, ax = plt.subplots(figsize=(10, 4.5), constrained_layout=True)
+    t = series["time"].to_numpy()
+    ends = [mission.start(k) for k in range(1, len(mission.segments))] + [t[-1]]
+    for k, seg in enumerate(mission.segments):
+        t0, t1 = mission.start(k), ends[k]
+        ax.axvspan(t0, t1, color=f"C{k % 10}", alpha=0.08, lw=0)
+        ax.text(
+            (t0 + t1) / 2,
+            1.01,
+            seg.name or seg.kind,
+            transform=ax.get_xaxis_transform(),
+            ha="center",
+            va="bottom",
+            fontsize="small",
+        )
+    for c in CORNERS:
+        ax.plot(t, series[f"{group}_{c}"], lw=0.8, label=f"{group} {CORNER_TITLES[c]}")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(f"{group} motor torque at the wheel [N m]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="small", ncol=4, loc="lower left")
+    ax.set_title(title or f"mission: {group} torques by segment", pad=18)
+    return fig
+
+
+def climb_limit(
+    df: pd.DataFrame, name: str, *, x: str = "step_height", curve: str = "speed_kmh", rule: tuple | None = None
+) -> tuple[plt.Figure, dict]:
+    """The worst drive motor's whole-run low-pass peak against the obstacle's height, a curve per
+    `curve`; variants that did not get over (status `stuck`) are crosses at their height, and
+    each curve's climb limit (between its highest climbed and lowest stuck height) is drawn.
+    `rule`: (W, r), a wheel's load in N and radius in m, draws the rule of thumb W sqrt(2 r h - h^2).
+    Returns the figure and {curve value: (highest climbed, lowest stuck) in the units of x}."""
+    data = df[df["status"].isin(["ok", "stuck"])].copy()
+    data["drive_worst"] = data[[f"drive_{c}_peak_lp_all" for c in CORNERS]].abs().max(axis=1)
+    fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
+    limits = {}
+    for k, (value, grp) in enumerate(data.groupby(curve)):
+        climbed, stuck = grp[grp.status == "ok"], grp[grp.status == "stuck"]
+        g = climbed.groupby(x)["drive_worst"].max()
+        ax.plot(g.index, g.to_numpy(), marker="o", color=f"C{k}", label=f"{label(curve)} = {value:g}")
+        ax.plot(stuck[x], stuck["drive_worst"], "x", color=f"C{k}", ms=8)
+        top, low = (climbed[x].max() if len(climbed) else np.nan), (stuck[x].min() if len(stuck) else np.nan)
+        limits[value] = (top, low)
+        if np.isfinite(top) and np.isfinite(low):
+            ax.axvline((top + low) / 2, color=f"C{k}", ls=":", lw=1)
+    if rule is not None:
+        w, r = rule
+        h = np.linspace(0, min(r, data[x].max() * 1.05), 200)
+        ax.plot(h, w * np.sqrt(np.maximum(2 * r * h - h * h, 0)), "k--", lw=1, label="rule of thumb W sqrt(2rh - h²)")
+    ax.set_xlabel(label(x))
+    ax.set_ylabel("drive peak torque, worst wheel, 50 ms low-pass [N m]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize="small")
+    ax.set_title(f"sweep '{name}': peak drive torque; x = stuck, dotted = climb limit")
+    return fig, limits
+
+
 def sweep_figures(df: pd.DataFrame, name: str, out_dir: str | Path, swept: list[str] | None = None) -> list[Path]:
     """The figures that fit a sweep's parameters, as PNG in `out_dir` (the sweep CLI's --plots).
 

@@ -18,7 +18,7 @@ from batchveh.batch import make_batch
 from batchveh.engines.mjx import MjxEngine
 from batchveh.engines.mujoco import MujocoEngine
 from batchveh.missions import mission_controls, mission_slope
-from batchveh.motors import Motor, check_mission
+from batchveh.motors import Motor, check_mission, smallest
 from batchveh.params import base_params
 from batchveh.results import metadata, units
 from batchveh.run import main as run_main
@@ -292,6 +292,21 @@ def test_mission_motor_check_at_wheel_and_motor_by_hand():
     assert list(c.fits) == [True, False, False]
     with pytest.raises(Exception, match="span: 'mission' has no column mission_drive_lf_rms"):
         check_mission(df, motor)
+
+
+def test_smallest_motor_over_a_mission_span():
+    # shaft values with gear 10, efficiency 1: rms 0.4 and 0.8 N m, low-pass peaks 1.0 and 1.6 N m,
+    # peak speeds 100 and 120 rad/s (below every corner speed)
+    df = _mission_frame("mission", [4.0, 8.0], [10.0, 16.0], [10.0, 12.0])
+    small = Motor(name="S", continuous_torque=0.5, peak_torque=1.5, gear_ratio=10, efficiency=1.0)  # rms 0.8 > 0.5
+    mid = Motor(name="M", continuous_torque=1.0, peak_torque=2.0, gear_ratio=10, efficiency=1.0)  # fits both rows
+    big = Motor(name="L", continuous_torque=2.0, peak_torque=6.0, gear_ratio=10, efficiency=1.0)
+    best, summary = smallest(df, [big, small, mid], span="mission")
+    assert best.name == "M"
+    assert list(summary.fits_all) == [False, True, True]
+    assert summary.loc[0, "continuous_fails"] == 1 and summary.loc[0, "peak_fails"] == 1  # 1.6 > 1.5
+    with pytest.raises(Exception, match="span: 'seg0_cruise' has no column"):
+        smallest(df, [mid], span="seg0_cruise")
 
 
 @pytest.mark.slow
