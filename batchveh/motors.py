@@ -133,9 +133,7 @@ def check_mission(df: pd.DataFrame, motor: Motor, span: str = "mission", group: 
     return out
 
 
-def smallest(
-    df: pd.DataFrame, catalogue: list[Motor], span: str | None = None
-) -> tuple[Motor | None, pd.DataFrame]:
+def smallest(df: pd.DataFrame, catalogue: list[Motor], span: str | None = None) -> tuple[Motor | None, pd.DataFrame]:
     """The motor with the lowest continuous torque that fits every row, and a per-motor summary.
 
     `span`: None checks the usual columns (`check`: the steady window's RMS, the whole run's
