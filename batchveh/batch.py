@@ -31,10 +31,11 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from batchveh import course
 from batchveh.config import ConfigError, did_you_mean
-from batchveh.params import GAINS, STATIC, base_params, parameter_specs, structural
+from batchveh.params import GAINS, STATIC, base_params, parameter_specs, structural, variant_setup
 from batchveh.scenarios import Scenario, gravity_vector
-from batchveh.vehicle import Vehicle, build_model, layout, replace_path, rolling_resistance_torque
+from batchveh.vehicle import Vehicle, build_model, layout, rolling_resistance_torque
 
 # MjModel fields that are only fast-path flags: 0 ("not the same frame") is always correct
 SAMEFRAME = ("body_sameframe", "geom_sameframe", "site_sameframe")
@@ -45,8 +46,13 @@ _PROBES = ((1.1, 0.011), (1.27, 0.023))
 def model_for(vehicle: Vehicle, scenario: Scenario) -> mujoco.MjModel:
     """The MjModel of one vehicle and scenario, towing wheels included."""
     m = build_model(
-        vehicle, time_step=scenario.time_step, friction=scenario.friction, gravity=tuple(scenario.gravity_vector())
+        vehicle,
+        time_step=scenario.time_step,
+        friction=scenario.friction,
+        gravity=tuple(scenario.gravity_vector()),
+        ground=course.ground(vehicle, scenario),
     )
+    course.write_heights(m, scenario)
     gainprm, biasprm = _gains(m, base_params(vehicle, scenario), scenario.towing)
     m.actuator_gainprm[:] = gainprm
     m.actuator_biasprm[:] = biasprm
@@ -115,10 +121,9 @@ def varying_fields(vehicle: Vehicle, scenario: Scenario, names: Sequence[str]) -
         p = base_params(vehicle, scenario)
         found: set[str] = set()
         for scale, shift in _PROBES:
-            v = vehicle
-            for k in names:
-                v = replace_path(v, k, p[k] * scale + shift)
-            probe = _numeric_fields(model_for(v, scenario))
+            probe = _numeric_fields(
+                model_for(*variant_setup(vehicle, scenario, {k: p[k] * scale + shift for k in names}))
+            )
             for name, values in probe.items():
                 if values.shape != base[name].shape:
                     raise ConfigError(
@@ -164,7 +169,6 @@ def make_batch(
     for k, v in table.items():
         params[k] = np.broadcast_to(np.asarray(v, float), (n,)).copy()
     model = model_for(vehicle, scenario)
-    lay = layout(model)
     fields: dict[str, np.ndarray] = {}
     struct = structural(swept, vehicle)
     if struct:
@@ -173,7 +177,7 @@ def make_batch(
         fields["opt.gravity"] = np.asarray(gravity_vector(params["gravity"], params["slope_deg"], xp=np))
     if "friction" in swept:
         fr = np.broadcast_to(model.geom_friction, (n, *model.geom_friction.shape)).copy()
-        fr[:, lay.ground_geom, 0] = params["friction"]
+        fr[:, course.ground_geoms(model), 0] = params["friction"][:, None]
         fields["geom_friction"] = fr
     if any(k in swept for k in GAINS):
         fields["actuator_gainprm"], fields["actuator_biasprm"] = _gains(model, params, scenario.towing)
@@ -223,14 +227,14 @@ def _structural_fields(vehicle, scenario, model, params, names, fields) -> None:
     combos, index = np.unique(np.stack([params[k] for k in names], axis=1), axis=0, return_inverse=True)
     models = []
     for row in combos:
-        v = vehicle
-        for k, val in zip(names, row, strict=True):
-            v = replace_path(v, k, float(val))
+        values = dict(zip(names, row.tolist(), strict=True))
+        v, sc = variant_setup(vehicle, scenario, values)
         try:
             v.validate("vehicle")
+            course.check(base_params(v, sc), sc.obstacle, "scenario")
         except ConfigError as err:
-            raise ConfigError(f"variant with {dict(zip(names, row.tolist(), strict=True))}: {err}") from None
-        models.append(_numeric_fields(model_for(v, scenario)))
+            raise ConfigError(f"variant with {values}: {err}") from None
+        models.append(_numeric_fields(model_for(v, sc)))
     base = _numeric_fields(model)
     for name in SAMEFRAME:
         base[name][:] = 0  # fast-path flags: off for everyone
@@ -266,6 +270,7 @@ def mjx_model(batch: VariantBatch, impl: str = "jax") -> tuple[Any, Any]:
     import jax.numpy as jnp
 
     mjx = import_mjx()
+    course.check_backend(batch.model, "mjx" if impl == "jax" else impl)
     m = mjx.put_model(batch.model, impl=impl)
     if impl == "warp":
         m = m.replace(opt=m.opt.replace(_impl=m.opt._impl.replace(warn_overflow=0)))
@@ -280,6 +285,11 @@ def mjx_model(batch: VariantBatch, impl: str = "jax") -> tuple[Any, Any]:
         if impl == "warp":
             if name in WARP_UNREAD or name in SAMEFRAME:
                 continue
+            if name in course.WARP_PER_MODEL:
+                raise ConfigError(
+                    f"model field {name} is one per model in MJX's Warp implementation, so the parameters that "
+                    "change it cannot vary on the warp backend; allowed: the mujoco or mjx backend, or fixed values"
+                )
             current = getattr(m, name, None) if name in public else None
             if current is None or current.size * batch.n != values.size:
                 raise ConfigError(

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from batchveh import stats
+from batchveh import course, stats
 from batchveh.batch import apply_solver, make_batch
 from batchveh.config import ConfigError
 from batchveh.params import parameter_specs
@@ -62,6 +62,12 @@ class ChunkRunner:
                 nthread=nthread,
             )
         except ConfigError as err:  # a setting the backend cannot run: name the file
+            raise ConfigError(f"{spec.where}: {err}") from None
+        from batchveh.batch import model_for
+
+        try:  # a course the backend cannot run is refused before any work
+            course.check_backend(model_for(spec.vehicle, spec.scenario), self.backend, spec.params)
+        except ConfigError as err:
             raise ConfigError(f"{spec.where}: {err}") from None
         self.chunk = self.engine.chunk_size
         self.n_chunks = -(-n // self.chunk)
@@ -107,7 +113,7 @@ class ChunkRunner:
         t0 = time.perf_counter()
         batch = make_batch(spec.vehicle, spec.scenario, {k: rows[k].to_numpy() for k in spec.params}, spec.params)
         apply_solver(batch.model, spec.solver)
-        res = self.engine.run(batch)
+        res = course.flag(self.engine.run(batch), batch.params, spec.scenario.obstacle)
         cols = {k: np.asarray(v) for k, v in res.items() if k != "status_code"}
         cols["status"] = [stats.STATUS[int(s)] for s in np.asarray(res["status_code"])]
         frame = pd.concat([rows.reset_index(drop=True), pd.DataFrame(cols)], axis=1)

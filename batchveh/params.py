@@ -8,8 +8,9 @@ A parameter is named as in the YAML: a scenario field (`slope_deg`, `friction`,
   compiled program each, so it can be fixed but not swept;
 - `model`: written straight into a model field that derives nothing (gravity,
   the ground's friction, servo gains);
-- `structure`: mass and geometry; the vehicle is compiled by MuJoCo once per
-  distinct combination, so every derived constant is MuJoCo's own;
+- `structure`: mass and geometry, the vehicle's and the ground's (`course.FIELDS`);
+  the model is compiled by MuJoCo once per distinct combination, so every derived
+  constant is MuJoCo's own;
 - `control`: read by the scenario's controls, as a traced value.
 
 `base_params` and `variant_setup` go between the flat name -> value mapping and
@@ -22,6 +23,7 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any, Literal
 
+from batchveh import course
 from batchveh.scenarios import Scenario, numeric_fields
 from batchveh.vehicle import Vehicle, numeric_paths, replace_path
 
@@ -46,6 +48,8 @@ def _acts(name: str, scenario: bool) -> Acts:
         return "static"
     if name in MODEL:
         return "model"
+    if name in course.FIELDS:  # the ground's shape: compiled per combination, as the vehicle's geometry
+        return "structure"
     return "control" if scenario else "structure"
 
 

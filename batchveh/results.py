@@ -70,9 +70,10 @@ _OTHER_DOC = {
     "variant": ("", "variant id"),
     "status": (
         "",
-        "ok, diverged (NaN, inf or a huge state, or MuJoCo found the simulation unstable) or flipped "
-        "(roll or pitch > 60 deg)",
+        "ok, diverged (NaN, inf or a huge state, or MuJoCo found the simulation unstable), flipped "
+        "(roll or pitch > 60 deg) or stuck (an obstacle not cleared by the end of the run)",
     ),
+    "cleared": ("", "the rear wheels' centres ended past the obstacle's far edge (obstacle runs only)"),
     "distance": ("m", "path length of the chassis centre in the ground plane after the settle"),
     "mean_speed": ("m/s", "mean forward chassis speed over the steady window"),
     "wheel_speed": ("rad/s", "mean wheel angular speed (four wheels) over the steady window"),

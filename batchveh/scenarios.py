@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from batchveh import laws
+from batchveh import course, laws
 from batchveh.config import ConfigError, did_you_mean, field, from_mapping, load_yaml
 from batchveh.vehicle import CORNER_SIGNS, CORNERS, MOTORS
 
@@ -62,6 +62,17 @@ class Scenario:
     steer_deg: float = field(45.0, unit="deg", ge=-90, le=90, doc="steering angle (steer_in_place, crab)")
     turn_radius: float = field(3.0, unit="m", doc="Ackermann turn radius; >0 turns left")
     yaw_rate_dps: float = field(20.0, unit="deg/s", doc="pivot yaw rate; >0 counter-clockwise")
+    # the ground across the path (batchveh.course): none, step, bump, pothole or terrain, and its shape
+    obstacle: str = "none"
+    obstacle_x: float = field(0.3, unit="m", ge=0, le=100, doc="from the front wheels' contact to the obstacle")
+    step_height: float = field(0.05, unit="m", gt=0, doc="step (curb) height")
+    bump_height: float = field(0.05, unit="m", gt=0, doc="bump height, a circular segment")
+    bump_length: float = field(0.3, unit="m", gt=0, doc="bump length along the path (chord)")
+    pothole_depth: float = field(0.05, unit="m", gt=0, doc="pothole (ditch) depth")
+    pothole_width: float = field(0.2, unit="m", gt=0, doc="pothole width along the path")
+    terrain_amplitude: float = field(0.03, unit="m", ge=0, doc="terrain height, lowest to highest point")
+    terrain_wavelength: float = field(0.5, unit="m", gt=0, doc="terrain bump wavelength (correlation length)")
+    terrain_seed: float = field(0.0, unit="1", ge=0, doc="terrain random seed (a number; integers by convention)")
     drive_law: str = "smooth_step"  # steer_in_place keeps the seed's ramp (SCENARIOS)
     towing: tuple[bool, bool, bool, bool] = (False, False, False, False)
     laws: dict | None = None
@@ -82,6 +93,7 @@ class Scenario:
             from batchveh.missions import check_mission
 
             check_mission(self, where)
+        course.check_obstacle(self.obstacle, where)
         if self.time_step > self.total_time:
             raise ConfigError(f"{where}.time_step: {self.time_step!r} exceeds total_time {self.total_time!r}")
         st = self.settle_time

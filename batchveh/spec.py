@@ -35,8 +35,9 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
+from batchveh import course
 from batchveh.config import ConfigError, check_number, did_you_mean, field, from_mapping, load_yaml
-from batchveh.params import parameter_specs, variant_setup
+from batchveh.params import base_params, parameter_specs, variant_setup
 from batchveh.scenarios import Scenario, load_scenario, scenario_from_mapping
 from batchveh.stats import StatsConfig
 from batchveh.vehicle import Vehicle, load_vehicle, vehicle_from_mapping
@@ -299,6 +300,7 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
         )
     vehicle, scenario = variant_setup(vehicle, scenario, fixed)
     vehicle.validate(f"{where}: vehicle")
+    course.check_sweep(base_params(vehicle, scenario), params, scenario.obstacle, sw.method in ("random", "lhs"), where)
     check_run(scenario, top.window, where)
     return SweepSpec(
         name=top.name,

@@ -179,6 +179,7 @@ def run_sweep(
         "ok": counts.get("ok", 0),
         "diverged": counts.get("diverged", 0),
         "flipped": counts.get("flipped", 0),
+        "stuck": counts.get("stuck", 0),
         "slipping": int(result["slipping"].sum()),
         "wall_s": wall,
         "compile_s": engine["compile_s"],
@@ -357,9 +358,10 @@ def main(argv: list[str] | None = None) -> int:
             cluster.disconnect()
     if s["engine_warnings"]:
         print(f"MuJoCo reported unstable simulations (marked diverged), e.g.: {s['engine_warnings'][0]}")
+    stuck = f"{s['stuck']} stuck, " if s["stuck"] else ""  # obstacle sweeps only
     print(
         f"{s['rows']} rows ({s['ran']} run now): {s['ok']} ok, {s['diverged']} diverged, {s['flipped']} flipped, "
-        f"{s['slipping']} slipping | {s['wall_s']:.1f} s wall, compile {s['compile_s']:.1f} s, "
+        f"{stuck}{s['slipping']} slipping | {s['wall_s']:.1f} s wall, compile {s['compile_s']:.1f} s, "
         f"{s['variant_steps_per_s']:.3g} variant-steps/s on {s['backend']} ({s['device']})"
     )
     print(f"results: {s['out']}  (pandas: batchveh.load({str(s['out'])!r}))")

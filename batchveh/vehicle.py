@@ -219,18 +219,33 @@ def _fmt(*xs: float) -> str:
     return " ".join(f"{x:.10g}" for x in xs)
 
 
+def ground_geom(name: str, shape: str, v: Vehicle, friction: float, time_step: float) -> str:
+    """One static geom of the ground, MJCF: `shape` gives its type, size and pose attributes.
+
+    Every ground geom has priority 1, the scenario's `friction` and the contact model's solimp and
+    solref, so a wheel meets the same contact on each of them (the plane, a step's box, a bump)."""
+    cm = v.contact_model
+    return (
+        f'<geom name="{name}" {shape} priority="1" friction="{friction:.10g} 0 0" '
+        f'solimp="{cm.impedance:.10g} {cm.impedance:.10g} 0.001 0.5 2" '
+        f'solref="{contact_time_constant(cm, time_step):.10g} 1" contype="2" conaffinity="1" material="grid"/>'
+    )
+
+
 def mjcf(
     v: Vehicle,
     *,
     time_step: float = 0.005,
     friction: float = 0.7,
     gravity: tuple[float, float, float] = (0.0, 0.0, -9.81),
+    ground: tuple[str, str] | None = None,
 ) -> str:
-    """MJCF text of the vehicle on a ground plane.
+    """MJCF text of the vehicle on the ground.
 
-    The ground geom has priority 1, so the contact friction is the ground's
-    `friction` whatever the wheels carry (MuJoCo otherwise takes the larger).
-    With `v.contacts == "ground"`, wheels collide with the ground and nothing else.
+    `ground`: (assets, worldbody geoms) of the ground, MJCF (batchveh.course builds them from
+    `ground_geom`); None: the flat plane. The ground geoms have priority 1, so the contact
+    friction is the ground's `friction` whatever the wheels carry (MuJoCo otherwise takes the
+    larger). With `v.contacts == "ground"`, wheels collide with the ground and nothing else.
     """
     c, w, h, p, mo = v.chassis, v.wheel, v.hub, v.payload, v.motors
     rolling = rolling_resistance_torque(w.rolling_resistance, w.radius, v.total_mass, abs(gravity[2]))
@@ -291,6 +306,7 @@ def mjcf(
             f'<general name="steer_{name}_v" joint="steer_{name}" gainprm="{mo.steer_kv:.10g}" '
             f'biastype="affine" biasprm="0 0 {-mo.steer_kv:.10g}"/>'
         )
+    ground_assets, ground_xml = ground or ("", ground_geom(GROUND, 'type="plane" size="0 0 1"', v, friction, time_step))
     return f"""<mujoco model="batchveh">
   <option timestep="{time_step:.10g}" integrator="implicitfast" gravity="{_fmt(*gravity)}"
           cone="{v.contact_model.cone}" impratio="{v.contact_model.impratio:.10g}"/>
@@ -298,14 +314,11 @@ def mjcf(
   <asset>
     <texture name="sky" type="skybox" builtin="gradient" rgb1=".5 .7 .9" rgb2=".9 .9 .95" width="64" height="64"/>
     <texture name="grid" type="2d" builtin="checker" rgb1=".62 .66 .6" rgb2=".5 .54 .48" width="64" height="64"/>
-    <material name="grid" texture="grid" texrepeat="1 1" texuniform="true"/>
+    <material name="grid" texture="grid" texrepeat="1 1" texuniform="true"/>{ground_assets}
   </asset>
   <worldbody>
     <light pos="0 0 6" dir="0 0 -1" directional="true"/>
-    <geom name="{GROUND}" type="plane" size="0 0 1" priority="1" friction="{friction:.10g} 0 0"
-          solimp="{v.contact_model.impedance:.10g} {v.contact_model.impedance:.10g} 0.001 0.5 2"
-          solref="{contact_time_constant(v.contact_model, time_step):.10g} 1"
-          contype="2" conaffinity="1" material="grid"/>
+    {ground_xml}
     <body name="chassis" pos="{_fmt(c.x_cg, c.y_cg, c.z_cg)}">
       <freejoint name="chassis"/>
       <geom name="chassis" type="box" size="{_fmt(c.length / 2, c.width / 2, c.height / 2)}"

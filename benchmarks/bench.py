@@ -2,6 +2,7 @@
 
     python benchmarks/bench.py                       # CPU: peers + mjx on CPU (small)
     python benchmarks/bench.py --mjx-sizes 1024 8192 65536 --solvers newton4 newton8 default
+    python benchmarks/bench.py --skip-cpu --mjx-sizes --courses flat step terrain --course-sizes 131072
 
 Rows: raw mujoco.batch at its best (Batch.rollout in blocks with the controls
 precomputed, recording qpos, qvel and qfrc_actuator as batchveh does; its batch
@@ -284,6 +285,43 @@ def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="h
     return cols, t_run - be.compile_s, be.compile_s, peak
 
 
+# --courses: the slope variants on a step (heights from a few values: each distinct height is one MuJoCo
+# compile) and on one terrain (MuJoCo Warp keeps one height field per model), beside flat ground
+COURSE_STEP_HEIGHTS = (0.02, 0.04, 0.06, 0.08, 0.10, 0.12, 0.14, 0.16)  # m; the wheel radius is 0.195
+COURSES = {"flat": {}, "step": {"obstacle": "step"}, "terrain": {"obstacle": "terrain", "terrain_amplitude": 0.04}}
+
+
+def course_rows(rows, courses, kind, sizes, n_steps):
+    """A row per course and batch size: batchveh's `kind` engine on `size` slope variants on flat ground,
+    on a step (step_height drawn from COURSE_STEP_HEIGHTS) or on a terrain; the same variants on each."""
+    import dataclasses
+
+    for size in sizes:
+        base, table = slope_table(size, seed=3)
+        for name in courses:
+            spec = dataclasses.replace(base, scenario=dataclasses.replace(base.scenario, **COURSES[name]))
+            tab = table.copy()
+            if name == "step":
+                tab["step_height"] = np.random.default_rng(4).choice(COURSE_STEP_HEIGHTS, size)
+            try:
+                cols, wall, comp, peak = run_backend(kind, spec, tab, size)
+            except Exception as err:  # out of memory, or a pair the engine cannot collide: record and go on
+                rows.append({"name": f"{kind} {name} n={size}", "error": str(err)[:200]})
+                print(rows[-1], flush=True)
+                continue
+            rows.append(
+                {
+                    "name": f"{kind} {name} n={size}",
+                    "course": name,
+                    "rate": size * n_steps / wall,
+                    "compile_s": comp,
+                    "peak_mem_gb": peak / 1e9,
+                    "ok_share": float(np.mean(cols["status_code"] == 0)),
+                }
+            )
+            print(rows[-1], flush=True)
+
+
 def sized_rows(rows, label, sizes, n_steps, acc, backend, **extra):
     """Append a row per batch size: the rate of `run_backend(kind, spec, table, size, *options)` for
     `backend` = (kind, spec, *options) on `size` slope variants, its compile time and peak memory, the
@@ -406,6 +444,9 @@ def main():
         help="JAX matmul precisions to compare for mjx (GPU float32 'default' may use TF32)",
     )
     ap.add_argument("--wheel-collision", default="cylinder", choices=["cylinder", "sphere"])
+    ap.add_argument("--courses", nargs="*", default=[], choices=list(COURSES), help="ground: flat, step, terrain")
+    ap.add_argument("--course-backend", default="warp", choices=["mujoco", "mjx", "warp"], help="engine of --courses")
+    ap.add_argument("--course-sizes", type=int, nargs="*", default=[131072], help="variants per --courses row")
     ap.add_argument(
         "--contact",
         default=None,
@@ -486,6 +527,8 @@ def main():
         sized_rows(rows, label, args.mjx_sizes, n_steps, acc, ("mjx", spec, solver, x64, mm))
     for solver in args.warp_solvers if args.warp_sizes or args.direct_sizes else []:
         warp_rows(rows, spec, ref_table, ref, solver, args.warp_sizes, args.direct_sizes, n_steps)
+    if args.courses:
+        course_rows(rows, args.courses, args.course_backend, args.course_sizes, n_steps)
     # the peer again after the GPU rows: the mean of both
     if raw_rate and (len(configs) and args.mjx_sizes or args.warp_sizes):
         again, _ = bench_raw_rollout(spec, peer_table, n_steps, peer["block"], peer["threads"])

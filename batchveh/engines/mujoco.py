@@ -11,6 +11,7 @@ qvel or qacc: MuJoCo would reset it) stops stepping in `rollout`; it is reported
 from __future__ import annotations
 
 import contextlib
+import copy
 import os
 from collections.abc import Iterator
 
@@ -30,6 +31,8 @@ from batchveh.vehicle import layout
 # length fixes the order of the float additions: another length changes results in the last bits.
 BLOCK = 100
 TILE = 256  # variants per fold call (see MujocoEngine.run)
+# model fields mujoco.batch shares between all simulations (asset data): a chunk runs one batch per value
+SHARED_ASSETS = ("hfield_data",)
 # warnings that mean the simulation's state is no longer valid
 UNSTABLE = [
     int(w)
@@ -90,6 +93,27 @@ class MujocoEngine:
         self._forces = None if forces is None else jax.jit(jax.vmap(jax.vmap(forces, (None, None, 0)), (0, 0, None)))
 
     def run(self, batch: VariantBatch) -> dict[str, np.ndarray]:
+        """Statistics columns of the chunk's variants, (n,) each. Variants that differ in asset data
+        (a terrain's heights), which mujoco.batch shares between all simulations, run as one batch
+        per distinct value, each on a copy of the model holding it."""
+        shared = [k for k in SHARED_ASSETS if k in batch.fields]
+        if not shared:
+            return self._run(batch)
+        rows = np.concatenate([batch.fields[k].reshape(batch.n, -1) for k in shared], axis=1)
+        _, group = np.unique(rows, axis=0, return_inverse=True)
+        out: dict[str, np.ndarray] = {}
+        for g in range(group.max() + 1):
+            ids = np.flatnonzero(group.ravel() == g)
+            m = copy.copy(batch.model)
+            for k in shared:
+                getattr(m, k)[:] = batch.fields[k][ids[0]]
+            fields = {k: v[ids] for k, v in batch.fields.items() if k not in shared}
+            cols = self._run(VariantBatch(m, fields, {k: v[ids] for k, v in batch.params.items()}, len(ids)))
+            for k, v in cols.items():
+                out.setdefault(k, np.empty(batch.n, np.asarray(v).dtype))[ids] = v
+        return out
+
+    def _run(self, batch: VariantBatch) -> dict[str, np.ndarray]:
         """Step the chunk in blocks; while MuJoCo steps block k on its threads, two worker threads
         fold block k-1's records into the statistics and compute block k+1's controls (all
         release the GIL while they compute). The last block's fold and the finalize, which no

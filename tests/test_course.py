@@ -1,0 +1,235 @@
+"""Obstacles and terrain (batchveh.course): energy, the climb limit, engines, refusals.
+
+All on the seed's vehicle (144.8 kg, wheel radius 0.195 m), straight line, MuJoCo C unless named.
+Tolerances, each with the value measured beside it:
+"""
+
+import numpy as np
+import pytest
+import yaml
+
+from batchveh import course, stats
+from batchveh.batch import make_batch, model_for, varying_fields
+from batchveh.config import ConfigError
+from batchveh.engines.mujoco import MujocoEngine
+from batchveh.scenarios import make_scenario
+from batchveh.spec import load_spec
+from batchveh.sweep import main
+from batchveh.vehicle import CORNERS, Vehicle, Wheel, rolling_resistance_torque
+
+G = 9.81
+# drive work on a 0.25 km/h step climb against m g h + rolling-resistance work + the final kinetic
+# energy (C_rr 0.01, mu 0.9): measured 1.051 (h 0.03 m) and 1.116 (0.05 m). What is above 1 is the
+# locked wheels' own slip: a wheel rolling over an edge advances r sin(theta) while the others roll
+# r theta, so one axle slides (validation/OBSTACLES.md); the issue's bound is 15%
+ENERGY_RTOL = 0.15
+# the highest step the seed's vehicle climbs at mu 0.7 and 0.5 km/h, four locked wheels, cylinder
+# contacts: 0.11 m climbs, 0.12 m is stuck (measured in 0.01 m steps, validation/OBSTACLES.md)
+CLIMB_LIMIT_MU07 = 0.115  # m
+# warp (float32, cylinder wheels) against MuJoCo C on a step sweep (0.03 and 0.08 m at mu 0.9 and 0.7,
+# 1 km/h): peak and RMS torques measured 1.6e-2 at most (a front wheel's peak_lp_all), drive work 3.7e-4
+STEP_PEAK_RTOL = 0.03
+STEP_ENERGY_RTOL = 2e-3
+# MJX (JAX implementation, float64) with sphere wheels against MuJoCo C with sphere wheels, the same
+# sweep: measured 3.3e-5 (peaks) and 2.5e-6 (drive work)
+MJX_PEAK_RTOL = 1e-4
+MJX_ENERGY_RTOL = 1e-5
+
+
+def _step(**kw):
+    base = {"total_time": 10.0, "ramp_time": 1.0, "speed_kmh": 0.5, "obstacle": "step", "obstacle_x": 0.2}
+    return make_scenario("straight_line", **{**base, **kw})
+
+
+def _run(vehicle, sc, table):
+    batch = make_batch(vehicle, sc, table)
+    n = batch.n
+    cols = MujocoEngine(sc, stats.StatsConfig.for_scenario(sc), n).run(batch)
+    return course.flag(cols, batch.params, sc.obstacle)
+
+
+def _energy(cols):
+    return sum(cols[f"drive_{c}_energy"] for c in CORNERS)
+
+
+def test_energy_balance_on_a_slow_step_climb():
+    """Drive work >= m g h, and within ENERGY_RTOL of m g h + rolling-resistance work + the final
+    kinetic energy, at 0.25 km/h."""
+    v = Vehicle(wheel=Wheel(rolling_resistance=0.01))
+    sc = _step(total_time=19.0, speed_kmh=0.25, friction=0.9)
+    heights = np.array([0.03, 0.05])
+    cols = _run(v, sc, {"step_height": heights})
+    assert cols["cleared"].all() and (cols["status_code"] == 0).all()
+    m, r = v.total_mass, v.wheel.radius
+    speed = 0.25 / 3.6
+    wheel_inertia = 0.5 * v.wheel.mass * r**2 + v.motors.armature
+    kinetic = 0.5 * m * speed**2 + 4 * 0.5 * wheel_inertia * (speed / r) ** 2
+    rolling = 4 * rolling_resistance_torque(0.01, r, m, G) * cols["distance"] / r
+    work = _energy(cols)
+    assert np.all(work >= m * G * heights), work
+    np.testing.assert_allclose(work, m * G * heights + rolling + kinetic, rtol=ENERGY_RTOL)
+
+
+def test_climb_limit_is_flagged():
+    """mu 0.7, 0.5 km/h: below CLIMB_LIMIT_MU07 the vehicle climbs (ok, cleared, not slipping) and the
+    peak drive torque rises with the height; above it every run is flagged stuck or slipping."""
+    heights = np.array([0.03, 0.07, 0.11, 0.12, 0.15])
+    cols = _run(Vehicle(), _step(friction=0.7), {"step_height": heights})
+    below = heights < CLIMB_LIMIT_MU07
+    ok = (cols["status_code"] == 0) & ~cols["slipping"]
+    assert ok[below].all() and cols["cleared"][below].all(), (cols["status_code"], cols["slipping"])
+    assert np.all(np.diff(cols["drive_sum_peak_lp_all"][below]) > 0), cols["drive_sum_peak_lp_all"]
+    stuck = cols["status_code"][~below] == 3
+    assert np.all(stuck | cols["slipping"][~below]), (cols["status_code"], cols["slipping"])
+    assert stuck.any()
+
+
+def test_friction_and_shape_reach_every_course_geom(vehicle):
+    """A swept friction is set on the step's geoms as on the plane; the step's height is structure:
+    varying_fields finds the geoms it moves from the name alone."""
+    sc = _step()
+    batch = make_batch(vehicle, sc, {"friction": np.array([0.4, 0.8]), "step_height": np.array([0.02, 0.06])})
+    ids = course.ground_geoms(batch.model)
+    assert len(ids) == 4  # plane, box, box top, edge capsule
+    np.testing.assert_array_equal(batch.fields["geom_friction"][:, ids, 0], [[0.4] * 4, [0.8] * 4])
+    assert {"geom_size", "geom_pos"} <= set(varying_fields(vehicle, sc, ["step_height"]))
+    m = model_for(vehicle, sc)
+    np.testing.assert_array_equal(m.geom_priority[ids], 1)
+    np.testing.assert_array_equal(m.geom_solref[ids], m.geom_solref[ids[:1]].repeat(len(ids), 0))
+    np.testing.assert_array_equal(m.geom_solimp[ids], m.geom_solimp[ids[:1]].repeat(len(ids), 0))
+
+
+def test_terrain_seed_and_heights_per_variant(vehicle):
+    """Each variant gets its own height field: two seeds differ, one seed repeats; the heights span
+    0..amplitude."""
+    sc = make_scenario("straight_line", total_time=1.0, obstacle="terrain", obstacle_x=0.0, speed_kmh=2.0)
+    table = {"terrain_seed": np.array([0.0, 1.0, 0.0]), "terrain_amplitude": np.array([0.04, 0.04, 0.04])}
+    batch = make_batch(vehicle, sc, table)
+    h = batch.fields["hfield_data"]
+    np.testing.assert_array_equal(h[0], h[2])
+    assert not np.array_equal(h[0], h[1])
+    np.testing.assert_allclose([h.min(), h.max()], [0.0, 0.04], atol=1e-6)
+    cols = MujocoEngine(sc, stats.StatsConfig.for_scenario(sc), 3).run(batch)
+    assert cols["drive_sum_peak_all"][0] == cols["drive_sum_peak_all"][2] != cols["drive_sum_peak_all"][1]
+
+
+def test_mjx_collision_table_matches_mjx():
+    """course.JAX_CANNOT_COLLIDE is MJX's own table for the wheel and ground shapes batchveh makes, and
+    WARP_PER_MODEL is what MJX's Warp implementation does not batch."""
+    from mujoco.mjx._src.collision_driver import has_collision_fn
+    from mujoco.mjx._src.types import GeomType
+    from mujoco.mjx.warp.types import _BATCH_DIM
+
+    for wheel in ("sphere", "cylinder"):
+        for ground in ("plane", "hfield", "box", "capsule", "cylinder"):
+            a, b = sorted((GeomType[wheel.upper()], GeomType[ground.upper()]))
+            assert has_collision_fn(a, b) == ((wheel, ground) not in course.JAX_CANNOT_COLLIDE), (wheel, ground)
+    for name in course.WARP_PER_MODEL:
+        assert _BATCH_DIM["Model"][name] is False
+
+
+@pytest.mark.parametrize("obstacle, shape", [("step", "box"), ("terrain", "hfield")], ids=["step", "terrain"])
+def test_mjx_refuses_cylinder_wheels_on_what_it_cannot_collide(vehicle, obstacle, shape):
+    sc = make_scenario("straight_line", total_time=1.0, obstacle=obstacle)
+    with pytest.raises(ConfigError, match=f"backend mjx: .*cylinder wheel with a {shape}.*wheel.collision: sphere"):
+        course.check_backend(model_for(vehicle, sc), "mjx")
+    sphere = Vehicle(wheel=Wheel(collision="sphere"))
+    course.check_backend(model_for(sphere, sc), "mjx")  # sphere wheels: every pair collides
+
+
+# --- bad input through the CLI: one line, exit 2, before any work ----------------------------------
+
+
+def _spec(tmp_path, scenario, params, vehicle=None):
+    raw = {
+        "name": "s",
+        "scenario": {"kind": "straight_line", **scenario},
+        "fixed": {"total_time": 1.0},
+        "sweep": {"method": "grid", "params": params},
+        "output": str(tmp_path / "out"),
+    }
+    if vehicle:
+        raw["vehicle"] = vehicle
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return path
+
+
+@pytest.mark.parametrize(
+    "scenario, params, vehicle, expect",
+    [
+        ({"obstacle": "step", "step_height": 0.2}, {"speed_kmh": [1]}, None, ["step_height: 0.2 m", "wheel.radius"]),
+        ({"obstacle": "step"}, {"step_height": [0.05, 0.19]}, {"wheel": {"radius": 0.18}}, ["step_height: 0.19 m"]),
+        ({"obstacle": "step"}, {"step_height": [0.05, 0.15], "wheel.radius": [0.12, 0.2]}, None, ["0.15 m", "0.12 m"]),
+        ({"obstacle": "bump", "bump_height": 0.2}, {"speed_kmh": [1]}, None, ["bump_height: 0.2 m", "bump_length / 2"]),
+        ({"obstacle": "curb"}, {"speed_kmh": [1]}, None, ["obstacle: 'curb' is not allowed", "step, bump"]),
+        ({"obstacle": "bump"}, {"step_height": [0.1]}, None, ["does not read step_height", "obstacle: step"]),
+    ],
+    ids=["step-base", "step-swept", "step-vs-swept-radius", "bump", "unknown-kind", "unused-field"],
+)
+def test_bad_obstacles_get_one_line(tmp_path, capsys, scenario, params, vehicle, expect):
+    path = _spec(tmp_path, scenario, params, vehicle)
+    with pytest.raises(ConfigError):
+        load_spec(path)
+    assert main([str(path), "--quiet", "--backend", "mujoco"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err and str(path) in err, err
+    for part in expect:
+        assert part in err, (part, err)
+    assert not (tmp_path / "out").exists()
+
+
+def test_mjx_cylinder_on_a_step_is_refused_through_the_cli(tmp_path, capsys):
+    path = _spec(tmp_path, {"obstacle": "step"}, {"step_height": [0.02, 0.04]})
+    assert main([str(path), "--quiet", "--backend", "mjx"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "cylinder wheel with a box" in err and "wheel.collision: sphere" in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_warp_refuses_swept_terrain(tmp_path, capsys):
+    pytest.importorskip("warp")
+    path = _spec(tmp_path, {"obstacle": "terrain"}, {"terrain_seed": [0, 1]})
+    assert main([str(path), "--quiet", "--backend", "warp"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "backend warp" in err and "terrain_seed" in err, err
+
+
+# --- engines agree ---------------------------------------------------------------------------------
+
+ENGINE_STATS = ("drive_sum_peak_lp_all", "drive_lf_peak_lp_all", "drive_lr_peak_lp_all", "drive_sum_rms")
+
+
+def _engines(vehicle, engine_name, **kw):
+    from batchveh.engines import make_engine
+
+    sc = _step(total_time=5.0, speed_kmh=1.0, ramp_time=0.5)
+    table = {"step_height": np.array([0.03, 0.08]), "friction": np.array([0.9, 0.7])}
+    cfg = stats.StatsConfig.for_scenario(sc)
+    out = []
+    for engine in (make_engine(engine_name, sc, cfg, 2, **kw), MujocoEngine(sc, cfg, 2)):
+        batch = make_batch(vehicle, sc, table)
+        out.append(course.flag(engine.run(batch), batch.params, "step"))
+    return out
+
+
+def _assert_engines_agree(a, c, peak_rtol, energy_rtol):
+    np.testing.assert_array_equal(a["status_code"], c["status_code"])
+    np.testing.assert_array_equal(a["cleared"], c["cleared"])
+    assert c["cleared"].all()
+    for k in ENGINE_STATS:
+        np.testing.assert_allclose(a[k], c[k], rtol=peak_rtol, err_msg=k)
+    np.testing.assert_allclose(_energy(a), _energy(c), rtol=energy_rtol)
+
+
+def test_warp_agrees_with_mujoco_c_on_a_step_sweep(vehicle):
+    pytest.importorskip("warp")
+    w, c = _engines(vehicle, "warp")
+    _assert_engines_agree(w, c, STEP_PEAK_RTOL, STEP_ENERGY_RTOL)
+
+
+@pytest.mark.slow  # 30 s on 2 cores, most of it MJX's compile
+def test_mjx_with_sphere_wheels_agrees_with_mujoco_c_on_a_step_sweep():
+    sphere = Vehicle(wheel=Wheel(collision="sphere"))
+    x, c = _engines(sphere, "mjx", precision="f64")
+    _assert_engines_agree(x, c, MJX_PEAK_RTOL, MJX_ENERGY_RTOL)
