@@ -80,9 +80,11 @@ def label(name: str) -> str:
     """Axis label with unit for a parameter or result column."""
     if name in LABELS:
         return LABELS[name]
+    from batchveh.params import parameter_specs
     from batchveh.results import column_doc
 
-    unit = column_doc(name, {})[0]
+    units = {k: spec.get("unit", "") for k, spec in parameter_specs().items()}
+    unit = column_doc(name, units)[0]
     return f"{name} [{unit}]" if unit else name
 
 
@@ -235,7 +237,8 @@ def mission_trace(series: pd.DataFrame, mission, group: str = "drive", title: st
     for c in CORNERS:
         ax.plot(t, series[f"{group}_{c}"], lw=0.8, label=f"{group} {CORNER_TITLES[c]}")
     ax.set_xlabel("time [s]")
-    ax.set_ylabel(f"{group} motor torque at the wheel [N m]")
+    where = "at the wheel" if group == "drive" else "about the steering axis"
+    ax.set_ylabel(f"{group} motor torque {where} [N m]")
     ax.grid(alpha=0.3)
     ax.legend(fontsize="small", ncol=4, loc="lower left")
     ax.set_title(title or f"mission: {group} torques by segment", pad=18)

@@ -16,6 +16,7 @@ def test_notebooks_exist():
         "01_seed_scenarios.ipynb",
         "02_torque_envelopes.ipynb",
         "03_motor_sizing.ipynb",
+        "04_obstacles_and_missions.ipynb",
     ]
 
 
