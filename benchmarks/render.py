@@ -24,7 +24,7 @@ def bench_table(d):
         f"mujoco {i['mujoco']}, jax {i['jax']}, Python {i['python']}; {i['steps']} steps of "
         f"{i['time_step']} s per variant (sweeps/slope.yaml variants).",
         "",
-        f"Command: `python {i['command']}`",
+        f"Command: `python {i['command']}`" + (f". {i['note']}" if i.get("note") else ""),
         "",
         "| row | variant-steps/s | sim s / wall s | x raw mujoco.batch | compile s | peak GPU GB | "
         "sum mean err | wheel mean err | wheel peak err | wheel peak_lp err |",
@@ -36,8 +36,10 @@ def bench_table(d):
             continue
         a = r.get("accuracy", {})
         ratio = f"{r['vs_raw_batch']:.2f}" if r.get("vs_raw_batch") else "-"
+        ok = f" (ok share {r['ok_share']:.4f})" if "ok_share" in r else ""
         lines.append(
-            f"| {r['name']} | {r['rate']:.3g} | {r['sim_s_per_s']:.3g} | {ratio} | "
+            f"| {r['name']}{ok} | {r['rate']:.3g} | "
+            f"{r['sim_s_per_s']:.3g} | {ratio} | "
             f"{r.get('compile_s', 0):.1f} | {r.get('peak_mem_gb', 0):.2f} | "
             + " | ".join(_err(a, k) for k in ERR_KEYS)
             + " |"
