@@ -168,6 +168,7 @@ def make_batch(
     params = {k: np.full(n, v, float) for k, v in base_params(vehicle, scenario).items()}
     for k, v in table.items():
         params[k] = np.broadcast_to(np.asarray(v, float), (n,)).copy()
+    course.check(params, scenario.obstacle, "scenario")  # every variant, swept or not (a single run too)
     model = model_for(vehicle, scenario)
     fields: dict[str, np.ndarray] = {}
     struct = structural(swept, vehicle)

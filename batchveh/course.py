@@ -39,6 +39,9 @@ if TYPE_CHECKING:
     from batchveh.vehicle import Vehicle
 
 OBSTACLES = ("none", "step", "bump", "pothole", "terrain")
+# the scenarios that drive along +X across an obstacle (a mission's turns are its user's choice: the
+# `reached` and `cleared` flags read x and ignore yaw)
+KINDS = ("straight_line", "manual", "towing", "custom", "mission")
 # the scenario fields each obstacle reads (obstacle_x: all but none); they are structure
 SHAPE_FIELDS = {
     "step": ("step_height",),
@@ -57,6 +60,7 @@ COURSE_WIDTH = 4.0  # m along Y, centred on the path
 EDGE_RADIUS = 0.01  # m, at most half the box's height
 TERRAIN_LENGTH = 3.0  # m along X
 TERRAIN_WIDTH = 1.6  # m along Y: both wheel tracks of the seed's vehicle (+-0.445 m) with room to drift
+TERRAIN_MARGIN = 0.2  # m: a wheel's outer edge stays this far inside the height field's side
 TERRAIN_CELL = 0.05  # m between height samples
 TERRAIN_BASE = 0.1  # m, the height field's solid base below its zero
 # the height field sits this far below the plane, so that a wheel on the plane (sunk 1.5 mm into the
@@ -96,10 +100,22 @@ def rules(p: Mapping[str, Any], obstacle: str) -> list[tuple[str, Any, Any, str]
         radius = (h * h + half * half) / (2 * h)  # the bump's circle; its centre is radius - h below ground
         reach = np.sqrt(np.maximum((r + radius) ** 2 - (r + radius - h) ** 2, 0.0)) - half
         return [("bump_height", h, half, "<="), ("obstacle_x", p["obstacle_x"], np.maximum(reach, 0.0), ">=")]
+    if obstacle == "pothole":
+        return [("pothole_width", p["pothole_width"], COURSE_LENGTH, "<=")]
+    if obstacle == "terrain":  # bumps below the wheel centre, and both wheel tracks on the height field
+        inside = TERRAIN_WIDTH / 2 - TERRAIN_MARGIN - np.asarray(p["wheel.width"], float) / 2
+        return [("terrain_amplitude", p["terrain_amplitude"], r, "<"), ("wheel.y_cg", p["wheel.y_cg"], inside, "<=")]
     return []
 
 
-_BOUND_NAME = {"step_height": "wheel.radius", "bump_height": "bump_length / 2", "obstacle_x": "the wheel's reach"}
+_BOUND_NAME = {
+    "step_height": "wheel.radius",
+    "bump_height": "bump_length / 2",
+    "obstacle_x": "the wheel's reach",
+    "pothole_width": "the course's length",
+    "terrain_amplitude": "wheel.radius",
+    "wheel.y_cg": f"the terrain's half-width less {TERRAIN_MARGIN:g} m and half the wheel's width",
+}
 
 
 def check(p: Mapping[str, Any], obstacle: str, where: str) -> None:
@@ -131,7 +147,7 @@ def check_sweep(p: Mapping[str, Any], swept: Mapping[str, Any], obstacle: str, r
                 f"allowed: obstacle: {' or '.join(readers)} in the scenario, or leave {key} out"
             )
     check(p, obstacle, where)
-    keys = [k for k in swept if k in (*FIELDS, "wheel.radius")]
+    keys = [k for k in swept if k in (*FIELDS, "wheel.radius", "wheel.y_cg", "wheel.width")]
     if not keys:
         return
     ends = [np.asarray(swept[k][:2] if ranges else swept[k], float) for k in keys]
@@ -277,18 +293,24 @@ def check_backend(m: mujoco.MjModel, backend: str, swept: Any = ()) -> None:
 
 
 def flag(cols: dict[str, Any], p: Mapping[str, Any], obstacle: str) -> dict[str, Any]:
-    """The columns with `cleared` added and status `stuck` (code 3) for an ok run that did not clear.
+    """The columns with `reached` and `cleared` added, and the status of an ok run that did not get
+    over its obstacle: `stuck` (code 3) where the front wheels reached the near edge, `short` (code 4)
+    where they never did (total_time too short for the distance, or a run that stood or turned away):
+    its statistics say nothing about the obstacle.
 
-    Cleared: the rear wheels' centres ended past the obstacle's far edge, from the variant's own
-    wheel.x_cg, chassis.x_cg and obstacle (the chassis starts at x = chassis.x_cg, the rear wheels
-    at -wheel.x_cg; yaw is ignored: straight runs). Give total_time long enough to cross it."""
+    Reached: the front wheels' centres ended past the near edge; cleared: the rear wheels' centres
+    ended past the far edge; from the variant's own wheel.x_cg, chassis.x_cg and obstacle (the
+    chassis starts at x = chassis.x_cg, the wheels at +-wheel.x_cg; yaw is ignored: the obstacle lies
+    across +X). Give total_time long enough to cross it."""
     if obstacle == "none":
         return cols
-    rear = -np.asarray(p["wheel.x_cg"]) + np.asarray(cols["final_x"]) - np.asarray(p["chassis.x_cg"])
-    cleared = rear > far_edge(p, obstacle)
+    travel = np.asarray(cols["final_x"]) - np.asarray(p["chassis.x_cg"])
+    reached = np.asarray(p["wheel.x_cg"]) + travel > near_edge(p)
+    cleared = -np.asarray(p["wheel.x_cg"]) + travel > far_edge(p, obstacle)
     out = dict(cols)
-    out["cleared"] = cleared
-    out["status_code"] = np.where((np.asarray(cols["status_code"]) == 0) & ~cleared, 3, cols["status_code"])
+    out["reached"], out["cleared"] = reached, cleared
+    ok = np.asarray(cols["status_code"]) == 0
+    out["status_code"] = np.where(ok & ~cleared, np.where(reached, 3, 4), cols["status_code"])
     return out
 
 

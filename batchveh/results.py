@@ -71,8 +71,10 @@ _OTHER_DOC = {
     "status": (
         "",
         "ok, diverged (NaN, inf or a huge state, or MuJoCo found the simulation unstable), flipped "
-        "(roll or pitch > 60 deg) or stuck (an obstacle not cleared by the end of the run)",
+        "(roll or pitch > 60 deg), stuck (an obstacle reached but not cleared by the end of the run) or "
+        "short (an obstacle never reached: too short a run)",
     ),
+    "reached": ("", "the front wheels' centres ended past the obstacle's near edge (obstacle runs only)"),
     "cleared": ("", "the rear wheels' centres ended past the obstacle's far edge (obstacle runs only)"),
     "distance": ("m", "path length of the chassis centre in the ground plane after the settle"),
     "mean_speed": ("m/s", "mean forward chassis speed over the steady window"),

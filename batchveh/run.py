@@ -19,9 +19,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from batchveh import stats
+from batchveh import course, stats
 from batchveh.batch import make_batch
 from batchveh.config import ConfigError
+from batchveh.params import base_params
 from batchveh.scenarios import SCENARIOS, Scenario, load_scenario
 from batchveh.vehicle import CORNERS, MOTORS, Vehicle, load_vehicle
 
@@ -115,6 +116,7 @@ def simulate(
     from batchveh.rollout import series_stats
 
     st = series_stats(series, cfg)  # over every step: the reduction leaves the settle out itself
+    st = course.flag(st, params, scenario.obstacle)  # stuck or short: an obstacle not got over
     frame = series_frame({k: v[cfg.settle_steps :] for k, v in series.items()}, scenario.time_step)
     return RunResult(frame, st, scenario, vehicle)
 
@@ -174,6 +176,7 @@ def main(argv: list[str] | None = None) -> int:
         if (out / "series.parquet").exists() and not args.overwrite:
             print(f"error: {out / 'series.parquet'} exists; give --overwrite to replace it", file=sys.stderr)
             return 3
+        course.check(base_params(vehicle, scenario), scenario.obstacle, str(args.scenario))  # names the file
         t0 = time.perf_counter()
         result = simulate(vehicle, scenario, backend=args.backend, precision=args.precision)
         paths = write(result, out, overwrite=args.overwrite)

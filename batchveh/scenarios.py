@@ -94,6 +94,11 @@ class Scenario:
 
             check_mission(self, where)
         course.check_obstacle(self.obstacle, where)
+        if self.obstacle != "none" and self.kind not in course.KINDS:
+            raise ConfigError(
+                f"{where}.obstacle: {self.obstacle!r} is not allowed with scenario {self.kind!r} (it does not drive "
+                f"along +X at the obstacle); allowed: obstacle: none, or scenario {', '.join(course.KINDS)}"
+            )
         if self.time_step > self.total_time:
             raise ConfigError(f"{where}.time_step: {self.time_step!r} exceeds total_time {self.total_time!r}")
         st = self.settle_time

@@ -39,7 +39,7 @@ from batchveh.vehicle import CORNERS, MOTORS
 
 CHANNELS = (*MOTORS, "drive_sum")  # 8 motors and the four-wheel drive-torque sum
 N_CH = len(CHANNELS)
-STATUS = {0: "ok", 1: "diverged", 2: "flipped", 3: "stuck"}  # stuck: set by course.flag
+STATUS = {0: "ok", 1: "diverged", 2: "flipped", 3: "stuck", 4: "short"}  # stuck, short: set by course.flag
 FLIP_DEG = 60.0  # roll or pitch beyond which the vehicle counts as flipped
 SLIP_LIMIT = 0.1  # |slip ratio| above which a variant is flagged as slipping
 MIN_WINDOW_STEPS = 5  # fewer steps in the steady window give no meaningful mean, RMS or percentile
