@@ -16,6 +16,9 @@ every step of the laws (after the settle), segment k the steps whose samples fal
   `time_above` (s with |torque| > the mission's `torque_threshold` for the motor's group; only
   for a group given a threshold);
 - `distance` (m, path length of the chassis centre in the ground plane).
+
+A span's statistics are NaN only where a sample inside it is not finite: a variant that diverges
+keeps the statistics of the segments that ended before.
 """
 
 from __future__ import annotations
@@ -100,21 +103,27 @@ def update(c: dict[str, Any], tau, abs_lp, s: dict[str, Any], i, cfg: MissionSta
     inside = (i[:, None] >= first[None, :]) & (i[:, None] <= last[None, :])  # (B, S)
     wt = xp.where(inside, 1.0, 0.0).T  # (S, B): sums over a span are products with it
 
+    def total(x):  # x (..., B, C) -> sum over each span's steps, (..., S, C); NaN only where a step inside is
+        bad = ~xp.isfinite(x)  # not finite (wt @ x would give 0 x NaN = NaN to every span, those that ended too)
+        hit = wt @ xp.where(bad, 1.0, 0.0)
+        return xp.where(hit > 0, np.nan, wt @ xp.where(bad, 0.0, x))
+
     def peak(old, x):  # x (..., B, C) >= 0 -> max over each span's steps, (..., S, C)
         return xp.maximum(old, xp.where(inside[:, :, None], x[..., :, None, :], 0.0).max(-3))
 
     power = s["tau"] * s["rate"]
     above = xp.where(xp.abs(s["tau"]) > xp.asarray(cfg.threshold), 1.0, 0.0)
+    above = xp.where(xp.isfinite(s["tau"]), above, np.nan)  # unknown where the torque is
     speed = xp.sqrt(s["vel"][..., 0] ** 2 + s["vel"][..., 1] ** 2)
     return {
-        "sumsq": c["sumsq"] + wt @ (tau * tau),
+        "sumsq": c["sumsq"] + total(tau * tau),
         "peak": peak(c["peak"], xp.abs(tau)),
         "peak_lp": peak(c["peak_lp"], abs_lp),
-        "energy_drive": c["energy_drive"] + (wt @ xp.maximum(power, 0.0)) * cfg.dt,
-        "energy_regen": c["energy_regen"] + (wt @ xp.minimum(power, 0.0)) * cfg.dt,
-        "above": c["above"] + (wt @ above) * cfg.dt,
+        "energy_drive": c["energy_drive"] + total(xp.maximum(power, 0.0)) * cfg.dt,
+        "energy_regen": c["energy_regen"] + total(xp.minimum(power, 0.0)) * cfg.dt,
+        "above": c["above"] + total(above) * cfg.dt,
         "speed_peak": peak(c["speed_peak"], xp.abs(s["rate"])),
-        "distance": c["distance"] + (wt @ speed[..., None])[..., 0] * cfg.dt,
+        "distance": c["distance"] + total(speed[..., None])[..., 0] * cfg.dt,
     }
 
 

@@ -35,7 +35,7 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-from batchveh import course
+from batchveh import course, missions
 from batchveh.config import ConfigError, check_number, did_you_mean, field, from_mapping, load_yaml
 from batchveh.params import base_params, parameter_specs, variant_setup
 from batchveh.scenarios import Scenario, load_scenario, scenario_from_mapping
@@ -298,9 +298,12 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
         raise ConfigError(
             f"{where}: window: {list(top.window)!r} is not allowed; allowed: [start_s, end_s], start < end"
         )
+    given = scenario  # before the fixed values: a mission's unread fields are named where they were set
     vehicle, scenario = variant_setup(vehicle, scenario, fixed)
     vehicle.validate(f"{where}: vehicle")
     course.check_sweep(base_params(vehicle, scenario), params, scenario.obstacle, sw.method in ("random", "lhs"), where)
+    if scenario.kind == "mission":
+        missions.check_sweep(given, params, fixed, where)
     check_run(scenario, top.window, where)
     return SweepSpec(
         name=top.name,

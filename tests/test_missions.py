@@ -13,16 +13,18 @@ import pandas as pd
 import pytest
 from conftest import SLOPE_SUM_RTOL, slope_torque
 
-from batchveh import stats
+from batchveh import mission_stats, stats
 from batchveh.batch import make_batch
 from batchveh.engines.mjx import MjxEngine
 from batchveh.engines.mujoco import MujocoEngine
+from batchveh.mission_stats import MissionStatsConfig
 from batchveh.missions import mission_controls, mission_slope
 from batchveh.motors import Motor, check_mission, smallest
 from batchveh.params import base_params
 from batchveh.results import metadata, units
 from batchveh.run import main as run_main
 from batchveh.scenarios import make_scenario
+from batchveh.sweep import main as sweep_main
 from batchveh.vehicle import CORNERS, MOTORS
 
 # A mission of one straight segment against straight_line with the same law, on MuJoCo C, flat:
@@ -40,6 +42,11 @@ PARTITION_RTOL = 1e-12
 # warp (float32) against MuJoCo C on a mission with a climb: per-motor statistics as tests/test_warp.py
 # (WHEEL_ATOL there, measured 0.048 N m); here measured 0.0032 N m at most (seg1_climb_drive_sum_peak)
 WARP_ATOL = 0.15
+# A mission's first segment against a mission of that segment alone, over the same steps (MuJoCo C):
+# the laws before the second segment starts are the same floats (causality); the reductions fold
+# the steps in other blocks. Measured 0.0 (bit-equal)
+CAUSAL_RTOL = 1e-12
+CAUSAL_ATOL = 1e-12  # N m, J, s, m
 SPEED_KMH, RAMP_S, SLOPE_DEG = 1.0, 0.6, 8.0
 PAYLOADS = np.array([0.0, 30.0])
 
@@ -110,9 +117,13 @@ def test_one_segment_mission_on_mjx_matches(straight):
 def test_two_segments_add_up_to_the_mission():
     """Accelerate, then stop: the energies (driving and regenerating) and the time above the
     threshold of the two segments add up to the mission's; peaks are the larger of the two."""
+    # on a 5 deg slope: each segment gives it (the scenario's slope_deg would reach only a climb; given
+    # as slope_deg=5.0 here, the run was flat: drive_lf energy 6.49 J, 11.13 J on the slope)
     sc = _mission(
-        [{"kind": "accelerate", "duration": 0.5, "speed_kmh": 2.0}, {"kind": "stop", "duration": 0.5}],
-        slope_deg=5.0,
+        [
+            {"kind": "accelerate", "duration": 0.5, "speed_kmh": 2.0, "slope_deg": 5.0},
+            {"kind": "stop", "duration": 0.5, "slope_deg": 5.0},
+        ],
         torque_threshold={"drive": 3.0, "steer": 0.5},
     )
     out = _run(MujocoEngine, sc)
@@ -133,6 +144,95 @@ def test_two_segments_add_up_to_the_mission():
     assert (out["seg1_stop_drive_lf_energy_regen"] < -0.01).all()
     assert (out["mission_drive_lf_time_above"] > 0.1).all() and (out["mission_drive_lf_time_above"] < 1.0).all()
     assert "mission_drive_sum_time_above" not in out  # no threshold for the sum
+
+
+def test_first_segment_is_the_mission_of_that_segment_alone():
+    """Causality: a mission's first segment (accelerate, then a climb) has the statistics of a mission
+    made of that segment alone, over the same steps; the climb after it changes the mission's."""
+    first = {"kind": "accelerate", "duration": 0.5, "speed_kmh": 2.0}
+    threshold = {"drive": 3.0, "steer": 0.5}
+    both = _run(
+        MujocoEngine,
+        _mission([first, {"kind": "climb", "duration": 0.5, "slope_deg": 10.0}], torque_threshold=threshold),
+    )
+    alone = _run(MujocoEngine, _mission([first], torque_threshold=threshold))
+    stats_ = ("rms", "peak", "peak_lp")
+    cols = [f"seg0_accelerate_{ch}_{st}" for ch in (*MOTORS, "drive_sum") for st in stats_]
+    cols += [f"seg0_accelerate_{m}_{st}" for m in MOTORS for st in ("energy_drive", "energy_regen", "time_above")]
+    cols += ["seg0_accelerate_distance"]
+    for col in cols:
+        np.testing.assert_allclose(both[col], alone[col], CAUSAL_RTOL, CAUSAL_ATOL, err_msg=col)
+    assert (alone["seg0_accelerate_drive_lf_energy_drive"] > 1.0).all()  # statistics worth comparing
+    assert (alone["seg0_accelerate_drive_lf_time_above"] > 0.05).all()
+    # what follows differs: the climb loads the drives to m g sin(10 deg) r by its end (48 N m with no
+    # payload; measured 49.7 and 60.2 N m peak), and the mission's energy grows with it
+    assert (both["seg1_climb_drive_sum_peak"] > 40.0).all()
+    assert (both["mission_drive_lf_energy_drive"] > alone["mission_drive_lf_energy_drive"] + 1.0).all()
+
+
+def test_span_times_in_the_metadata_are_the_durations(tmp_path):
+    """mission_spans_s of a sweep's file: each segment's (start, end) in s of law time, from the
+    durations by hand. The cruise by distance lasts 0.1 m / (0.7 km/h) = 0.5143 s; the ends
+    0.5, 1.0143, 1.2643 s fall on the nearest 5 ms steps: 100, 203, 253."""
+    from batchveh.missions import mission_of
+    from batchveh.spec import spec_from_mapping
+    from batchveh.sweep import run_sweep
+
+    segments = [
+        {"kind": "accelerate", "duration": 0.5},
+        {"kind": "cruise", "distance": 0.1, "speed_kmh": 0.7},
+        {"kind": "stop", "duration": 0.25},
+    ]
+    raw = {
+        "name": "spans",
+        "scenario": {"kind": "mission", "segments": segments},
+        "sweep": {"params": {"friction": [0.7]}},
+        "backend": "mujoco",
+    }
+    spec = spec_from_mapping(raw, "test")
+    assert run_sweep(spec, out=tmp_path / "s", progress=False)["ok"] == 1
+    spans = metadata(tmp_path / "s")["mission_spans_s"]
+    ends = [0.0, 0.5, 1.015, 1.265]
+    expect = {"mission": [0.0, 1.265], "seg0_accelerate": ends[0:2], "seg1_cruise": ends[1:3], "seg2_stop": ends[2:4]}
+    assert list(spans) == list(expect)
+    for span, times in expect.items():
+        np.testing.assert_allclose(spans[span], times, rtol=0, atol=1e-12, err_msg=span)
+    m = mission_of(spec.scenario)
+    np.testing.assert_allclose([m.start(k) for k in range(4)], ends, rtol=0, atol=1e-12)
+
+
+def test_a_late_nan_keeps_the_segments_that_ended_before():
+    """A variant whose samples turn NaN in its second segment (a divergence): the first segment keeps
+    its statistics, by hand from its own steps; the second and the whole mission are NaN."""
+    cfg = MissionStatsConfig(
+        spans=("mission", "seg0_a", "seg1_b"), first=(0, 0, 4), last=(7, 3, 7), dt=0.1, threshold=(1.0,) * 8
+    )
+    rng = np.random.default_rng(0)
+    tau = rng.normal(0.0, 2.0, (2, 8, 9))  # 2 variants x 8 steps x (8 motors + drive sum), N m
+    abs_lp = np.abs(rng.normal(0.0, 1.0, (2, 8, 9)))
+    rate = rng.normal(0.0, 3.0, (2, 8, 8))  # rad/s
+    vel = rng.normal(0.0, 0.5, (2, 8, 3))  # m/s
+    tau[1, 5:] = abs_lp[1, 5:] = rate[1, 5:] = vel[1, 5:] = np.nan  # variant 1 diverges at step 5
+    c = mission_stats.init(cfg, (2,))
+    for block in (slice(0, 3), slice(3, 8)):  # two blocks: the carry too
+        s = {"tau": tau[:, block, :8], "rate": rate[:, block], "vel": vel[:, block]}
+        c = mission_stats.update(c, tau[:, block], abs_lp[:, block], s, np.arange(8)[block], cfg)
+    out = mission_stats.finalize(c, cfg)
+    t0, p0 = tau[:, :4], tau[:, :4, :8] * rate[:, :4]  # the first segment's steps 0-3
+    hand = {
+        "drive_lf_rms": np.sqrt((t0[..., 0] ** 2).mean(-1)),
+        "steer_rr_peak": np.abs(t0[..., 7]).max(-1),
+        "drive_sum_peak_lp": abs_lp[:, :4, 8].max(-1),
+        "drive_rf_energy_drive": np.maximum(p0[..., 1], 0).sum(-1) * 0.1,
+        "steer_lf_energy_regen": np.minimum(p0[..., 4], 0).sum(-1) * 0.1,
+        "steer_lr_speed_peak": np.abs(rate[:, :4, 6]).max(-1),
+        "drive_lr_time_above": (np.abs(t0[..., 2]) > 1.0).sum(-1) * 0.1,
+        "distance": np.hypot(vel[:, :4, 0], vel[:, :4, 1]).sum(-1) * 0.1,
+    }
+    for name, value in hand.items():
+        np.testing.assert_allclose(out[f"seg0_a_{name}"], value, rtol=1e-14, err_msg=name)
+        assert np.isfinite(out[f"seg1_b_{name}"][0]) and np.isnan(out[f"seg1_b_{name}"][1]), name
+        assert np.isfinite(out[f"mission_{name}"][0]) and np.isnan(out[f"mission_{name}"][1]), name
 
 
 def test_climb_segment_holds_the_closed_form(vehicle):
@@ -210,6 +310,13 @@ _GOOD = "  - {kind: accelerate, duration: 1}\n"
         (f"total_time: 5\nsegments:\n{_GOOD}", ["total_time", "5.0", "segments' total 1 s"]),
         (f"torque_threshold: {{drive: -1}}\nsegments:\n{_GOOD}", ["torque_threshold.drive", "> 0 N m"]),
         ("segments: 3\n", ["segments", "non-empty list"]),
+        (  # a turn's keys are its own geometry's: an ackermann turn has no yaw rate
+            "segments:\n  - {kind: turn, turn: ackermann, duration: 1, yaw_rate_dps: 20}\n",
+            [
+                "segments[0].yaw_rate_dps",
+                "allowed keys: kind, duration, transition, slope_deg, name, turn, speed_kmh, turn_radius",
+            ],
+        ),
     ],
 )
 def test_bad_mission_yaml(tmp_path, capsys, text, expect):
@@ -242,6 +349,95 @@ def test_bad_mission_in_a_sweep_spec_exits_2_without_traceback(tmp_path):
     lines = [ln for ln in out.stderr.splitlines() if ln.strip() and "warp" not in ln]
     assert out.returncode == 2 and len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
     assert "segments[0].kind" in lines[0] and "'accelerate'" in lines[0] and str(spec) in lines[0]
+
+
+# --- scenario fields a mission does not read ---------------------------------------------------
+
+_OWN_SPEEDS = (
+    "    - {kind: accelerate, duration: 0.5, speed_kmh: 2}\n"  # each segment gives its own speed
+    "    - {kind: cruise, duration: 0.5, speed_kmh: 2}\n"
+)
+
+
+def _spec_text(segments, rest, scenario=""):
+    return f"name: m\nscenario:\n  kind: mission\n{scenario}  segments:\n{segments}{rest}backend: mujoco\n"
+
+
+def test_unread_swept_fields_exit_2_in_one_line(tmp_path):
+    """The review's sweep: two segments with their own speed, swept over ramp_time x speed_kmh x
+    turn_radius, ran 8 identical rows; now the CLI refuses it in one line, no traceback."""
+    spec = tmp_path / "spec.yaml"
+    sweep = "sweep: {params: {ramp_time: [1, 2], speed_kmh: [1, 2], turn_radius: [2, 3]}}\n"
+    spec.write_text(_spec_text(_OWN_SPEEDS, sweep))
+    out = subprocess.run(
+        [sys.executable, "-m", "batchveh.sweep", str(spec), "--dry-run"], capture_output=True, text=True, timeout=300
+    )
+    lines = [ln for ln in out.stderr.splitlines() if ln.strip() and "warp" not in ln]
+    assert out.returncode == 2 and len(lines) == 1 and "Traceback" not in out.stderr, out.stderr
+    assert str(spec) in lines[0] and "sweep.params.ramp_time" in lines[0] and "transition" in lines[0], lines[0]
+
+
+_CRAB = "    - {kind: turn, turn: crab, duration: 1, steer_deg: 20}\n"
+_CLIMB_OWN = "    - {kind: climb, duration: 1, slope_deg: 5}\n"
+
+
+@pytest.mark.parametrize(
+    "segments, rest, scenario, expect",
+    [
+        (_OWN_SPEEDS, "sweep: {params: {speed_kmh: [1, 2]}}\n", "", ["sweep.params.speed_kmh", "segments 0, 1 give"]),
+        (_OWN_SPEEDS, "sweep: {params: {turn_radius: [2, 3]}}\n", "", ["sweep.params.turn_radius", "ackermann"]),
+        (
+            "    - {kind: turn, turn: ackermann, duration: 1, turn_radius: 2}\n",
+            "sweep: {params: {turn_radius: [2, 3]}}\n",
+            "",
+            ["sweep.params.turn_radius", "segments 0 give their own", "speed_kmh (segments 0)"],
+        ),
+        (_CLIMB_OWN, "sweep: {params: {slope_deg: [0, 5]}}\n", "", ["sweep.params.slope_deg", "no climb leaves"]),
+        (_OWN_SPEEDS, "sweep: {params: {slope_deg: [0, 5]}}\n", "", ["sweep.params.slope_deg", "flat"]),
+        (_CRAB, "sweep: {params: {steer_deg: [10, 20]}}\n", "", ["sweep.params.steer_deg", "crab turn"]),
+        (_OWN_SPEEDS, "sweep: {params: {yaw_rate_dps: [10, 20]}}\n", "", ["sweep.params.yaw_rate_dps", "pivot"]),
+        (_OWN_SPEEDS, "fixed: {ramp_time: 2}\nsweep: {params: {friction: [0.5]}}\n", "", ["fixed.ramp_time"]),
+        (_OWN_SPEEDS, "fixed: {speed_kmh: 2}\nsweep: {params: {friction: [0.5]}}\n", "", ["fixed.speed_kmh"]),
+        (_OWN_SPEEDS, "sweep: {params: {friction: [0.5]}}\n", "  drive_law: ramp\n", ["scenario.drive_law"]),
+        (_OWN_SPEEDS, "sweep: {params: {friction: [0.5]}}\n", "  speed_kmh: 2\n", ["scenario.speed_kmh"]),
+        (  # a total_time that is not the segments' total is named where it was given
+            _OWN_SPEEDS,
+            "fixed: {total_time: 0.6}\nsweep: {params: {friction: [0.5]}}\n",
+            "",
+            ["fixed.total_time: 0.6 differs from the segments' total 1 s"],
+        ),
+    ],
+)
+def test_unread_field_is_refused(tmp_path, capsys, segments, rest, scenario, expect):
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(_spec_text(segments, rest, scenario))
+    code = sweep_main([str(spec), "--dry-run"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert str(spec) in err and "allowed:" in err, err
+    for part in expect:
+        assert part in err, (part, err)
+
+
+@pytest.mark.parametrize(
+    "segments, rest",
+    [
+        (  # the cruise leaves its speed out: speed_kmh is read (by segment 1)
+            "    - {kind: accelerate, duration: 0.5, speed_kmh: 2}\n    - {kind: cruise, duration: 0.5}\n",
+            "sweep: {params: {speed_kmh: [1, 2]}}\n",
+        ),
+        ("    - {kind: climb, duration: 1}\n", "sweep: {params: {slope_deg: [0, 5]}}\n"),
+        ("    - {kind: turn, turn: ackermann, duration: 1}\n", "sweep: {params: {turn_radius: [2, 3]}}\n"),
+        ("    - {kind: turn, turn: crab, duration: 1}\n", "sweep: {params: {steer_deg: [10, 20]}}\n"),
+        ("    - {kind: steer, duration: 1}\n", "sweep: {params: {steer_deg: [10, 20]}}\n"),
+        ("    - {kind: turn, turn: pivot, duration: 1}\n", "sweep: {params: {yaw_rate_dps: [10, 20]}}\n"),
+        (_OWN_SPEEDS, "fixed: {total_time: 1.0}\nsweep: {params: {friction: [0.5, 0.7], gravity: [9.81]}}\n"),
+    ],
+)
+def test_read_field_is_accepted(tmp_path, capsys, segments, rest):
+    spec = tmp_path / "spec.yaml"
+    spec.write_text(_spec_text(segments, rest))
+    assert sweep_main([str(spec), "--dry-run"]) == 0, capsys.readouterr().err
 
 
 # --- the example sweep, its columns and the motor check ------------------------------------------
