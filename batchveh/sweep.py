@@ -135,10 +135,12 @@ def run_sweep(
                 "torques drift by 6% (median) on a GPU; for per-wheel values give precision: f64, or the fast "
                 "contact preset vehicle.contact_model {cone: pyramidal, impratio: 1, impedance: 0.9} (README, Speed)"
             )
-        if backend == "mjx" and spec.scenario.obstacle == "terrain":
+        if spec.scenario.obstacle == "terrain":
             note(
-                "MJX's JAX implementation on terrain: wheel peaks 10-25% and RMS 10-16% below MuJoCo C's in a "
-                "check (sphere wheels, float64, 3 seeds; cause not found): check terrain results on the mujoco backend"
+                "terrain (a height field) is approximate on every engine: each keeps its own contacts per wheel "
+                "(MuJoCo C up to 50, warp and mjx 4), which move a wheel's sinkage and so the fight of four locked "
+                "wheels: per-wheel torques are not resolved, four-wheel values carry +10-35% against exact geometry "
+                "and differ 2-38% between engines (validation/TERRAIN.md); size single motors on a step or bump"
             )
         n_chunks = -(-n // chunk)
         with folder.lock():
