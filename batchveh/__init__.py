@@ -39,6 +39,7 @@ def _choose_gl() -> str | None:
 
 GL_PROBLEM = _choose_gl()
 
+from batchveh import missions as _missions  # noqa: E402, F401  (registers the scenario kind 'mission')
 from batchveh.config import ConfigError  # noqa: E402  (after _choose_gl: these import mujoco)
 from batchveh.results import ResultError, load, metadata, units  # noqa: E402
 from batchveh.scenarios import SCENARIOS, Scenario, load_scenario, make_scenario  # noqa: E402

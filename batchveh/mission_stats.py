@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from batchveh import missions
 from batchveh.vehicle import MOTORS
 
 CHANNELS = (*MOTORS, "drive_sum")  # as stats.CHANNELS
@@ -60,9 +61,7 @@ class MissionStatsConfig:
         """The spans of a mission scenario; None for any other scenario."""
         if scenario.kind != "mission":
             return None
-        from batchveh.missions import mission_of
-
-        m = mission_of(scenario)
+        m = missions.mission_of(scenario)
         b, settle = m.boundaries, scenario.settle_steps
         first = (settle, *(settle + b[k] for k in range(len(m.segments))))
         last = (settle + b[-1] - 1, *(settle + b[k + 1] - 1 for k in range(len(m.segments))))

@@ -53,7 +53,16 @@ import numpy as np
 
 from batchveh import laws
 from batchveh.config import ConfigError, did_you_mean, field, from_mapping
-from batchveh.scenarios import Scenario, ackermann_targets, axis_roll, gravity_vector, law_time, pivot_targets
+from batchveh.scenarios import (
+    Kind,
+    Scenario,
+    ackermann_targets,
+    axis_roll,
+    gravity_vector,
+    law_time,
+    pivot_targets,
+    register,
+)
 
 SEGMENT_KINDS = ("accelerate", "cruise", "climb", "turn", "stop", "steer")
 TURNS = ("ackermann", "crab", "pivot")
@@ -234,10 +243,8 @@ def mission_of(sc: Scenario, where: str = "scenario") -> Mission:
 
 
 def check_mission(sc: Scenario, where: str) -> None:
-    """Raise ConfigError where a scenario's mission fields are wrong or given to another kind."""
-    if sc.kind != "mission":
-        key = "segments" if sc.segments is not None else "torque_threshold"
-        raise ConfigError(f"{where}: {key}: given for kind {sc.kind!r}; allowed only with kind: mission")
+    """Raise ConfigError where a mission scenario's fields are wrong (scenarios refuses its fields
+    given to another kind)."""
     if sc.torque_threshold is not None and not isinstance(sc.torque_threshold, Mapping):
         raise ConfigError(
             f"{where}: torque_threshold: {sc.torque_threshold!r} is not a mapping; allowed: {{drive, steer}}"
@@ -448,3 +455,14 @@ def body_forces_fn(sc: Scenario) -> Callable[[Mapping[str, Any], Any, Any], Any]
         return jnp.concatenate([f, jnp.zeros_like(f)], axis=-1)
 
     return forces
+
+
+def complete_mission(fields: dict[str, Any], where: str) -> dict[str, Any]:
+    """A mission's fields with total_time, the sum of its segments' durations, where not given."""
+    return fields if "total_time" in fields else {**fields, "total_time": mission_duration(fields, where)}
+
+
+register(
+    "mission",
+    Kind(mission_controls, {}, check=check_mission, complete=complete_mission, reads=("segments", "torque_threshold")),
+)

@@ -24,7 +24,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -87,12 +87,15 @@ class Scenario:
             raise ConfigError(
                 f"{where}.drive_law: {self.drive_law!r} is not allowed; allowed: ramp, unbounded_ramp, smooth_step"
             )
-        if self.kind == "custom":
-            custom_laws(self, where)
-        if self.kind == "mission" or self.segments is not None or self.torque_threshold is not None:
-            from batchveh.missions import check_mission
-
-            check_mission(self, where)
+        entry = SCENARIOS[self.kind]
+        if entry.check is not None:
+            entry.check(self, where)
+        for key in ("segments", "torque_threshold"):
+            if getattr(self, key) is not None and key not in entry.reads:
+                kinds = [k for k, e in SCENARIOS.items() if key in e.reads]
+                raise ConfigError(
+                    f"{where}: {key}: given for kind {self.kind!r}; allowed only with kind: {', '.join(kinds)}"
+                )
         course.check_obstacle(self.obstacle, where)
         if self.obstacle != "none" and self.kind not in course.KINDS:
             raise ConfigError(
@@ -282,6 +285,10 @@ def custom_laws(sc: Scenario, where: str = "scenario") -> tuple[laws.Law, ...]:
     return tuple(out)
 
 
+def _check_custom(sc: Scenario, where: str) -> None:
+    custom_laws(sc, where)
+
+
 def custom(sc, p, t):
     """Eight motion laws from YAML: drive speeds in rad/s, steering angles in deg."""
     ls = custom_laws(sc)
@@ -289,30 +296,40 @@ def custom(sc, p, t):
     return jnp.stack(vals[:4]), jnp.stack(vals[4:])
 
 
-def mission(sc, p, t):
-    """A duty cycle: segments one after another (batchveh.missions)."""
-    from batchveh.missions import mission_controls
-
-    return mission_controls(sc, p, t)
-
-
 def manual(sc, p, t):
     """Seed scenario 0, 'manual inputs': like straight_line, every field from the config."""
     return straight_line(sc, p, t)
 
 
-SCENARIOS: dict[str, tuple[Controls, dict[str, Any]]] = {
-    "manual": (manual, {}),
-    "straight_line": (straight_line, {}),
-    "steer_in_place": (steer_in_place, {"total_time": 3.0, "drive_law": "ramp"}),  # the seed's laws
-    "towing": (towing, {"towing": (False, False, True, True)}),
-    "ackermann": (ackermann, {"total_time": 8.0}),
-    "crab": (crab, {"total_time": 8.0, "steer_deg": 30.0}),
-    "pivot": (pivot, {"total_time": 8.0, "ramp_time": 2.0}),
-    "steer_in_place_rolling": (steer_in_place_rolling, {"total_time": 3.0}),
-    "custom": (custom, {}),
-    "mission": (mission, {}),
-}
+class Kind(NamedTuple):
+    """A registered scenario kind: its controls, its own defaults, and optional hooks: `check(sc,
+    where)` raises ConfigError for a scenario of this kind that cannot run; `complete(fields, where)`
+    fills fields derived from the others before the Scenario is built (a mission's total_time);
+    `reads` names the kind-only fields (segments, torque_threshold) it accepts."""
+
+    controls: Controls
+    defaults: dict[str, Any]
+    check: Callable[[Scenario, str], None] | None = None
+    complete: Callable[[dict[str, Any], str], dict[str, Any]] | None = None
+    reads: tuple[str, ...] = ()
+
+
+SCENARIOS: dict[str, Kind] = {
+    "manual": Kind(manual, {}),
+    "straight_line": Kind(straight_line, {}),
+    "steer_in_place": Kind(steer_in_place, {"total_time": 3.0, "drive_law": "ramp"}),  # the seed's laws
+    "towing": Kind(towing, {"towing": (False, False, True, True)}),
+    "ackermann": Kind(ackermann, {"total_time": 8.0}),
+    "crab": Kind(crab, {"total_time": 8.0, "steer_deg": 30.0}),
+    "pivot": Kind(pivot, {"total_time": 8.0, "ramp_time": 2.0}),
+    "steer_in_place_rolling": Kind(steer_in_place_rolling, {"total_time": 3.0}),
+    "custom": Kind(custom, {}, check=lambda sc, where: _check_custom(sc, where)),
+}  # batchveh.missions registers "mission" (`register`); batchveh's __init__ imports it
+
+
+def register(name: str, kind: Kind) -> None:
+    """Add a scenario kind to SCENARIOS (a module that builds on this one, as missions does)."""
+    SCENARIOS[name] = kind
 
 
 def law_time(sc: Scenario, t):
@@ -340,7 +357,7 @@ def controls_fn(sc: Scenario) -> Callable[[Mapping[str, Any], Any], Any]:
     time, in s from the first step: the laws see `law_time` (held at 0 through the settle).
     The steering rate is the exact time derivative of the angle law (jax.jvp).
     """
-    fn = SCENARIOS[sc.kind][0]
+    fn = SCENARIOS[sc.kind].controls
 
     def ctrl(p, t):
         t = jnp.asarray(t, dtype=jnp.result_type(float))
@@ -369,7 +386,7 @@ def check_kind(kind: Any, prefix: str = "", what: str = "not known") -> None:
 def make_scenario(kind: str = "straight_line", **overrides: Any) -> Scenario:
     """A registered scenario with its own defaults, then `overrides`."""
     check_kind(kind)
-    sc = Scenario(kind=kind, **_mission_time({**SCENARIOS[kind][1], **overrides}, kind, "scenario"))
+    sc = Scenario(kind=kind, **_complete({**SCENARIOS[kind].defaults, **overrides}, kind, "scenario"))
     sc.validate()
     return sc
 
@@ -387,16 +404,13 @@ def scenario_from_mapping(data: Mapping[str, Any], where: str) -> Scenario:
                 f"in m/s^2 or one of {', '.join(GRAVITY_PRESETS)}"
             )
         data["gravity"] = GRAVITY_PRESETS[g]
-    return from_mapping(Scenario, {"kind": kind, **SCENARIOS[kind][1], **_mission_time(data, kind, where)}, where)
+    return from_mapping(Scenario, {"kind": kind, **SCENARIOS[kind].defaults, **_complete(data, kind, where)}, where)
 
 
-def _mission_time(fields: dict[str, Any], kind: str, where: str) -> dict[str, Any]:
-    """A mission's total_time is the sum of its segments' durations: filled in where not given."""
-    if kind != "mission" or "total_time" in fields:
-        return fields
-    from batchveh.missions import mission_duration
-
-    return {**fields, "total_time": mission_duration(fields, where)}
+def _complete(fields: dict[str, Any], kind: str, where: str) -> dict[str, Any]:
+    """`fields` with what the kind derives from them (its `complete` hook), before the Scenario is built."""
+    complete = SCENARIOS[kind].complete
+    return fields if complete is None else complete(fields, where)
 
 
 def load_scenario(name_or_path: str | Path) -> Scenario:
