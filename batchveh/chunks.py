@@ -46,12 +46,15 @@ class ChunkRunner:
         workers: int = 1,
         nthread: int = 0,
     ):
+        from batchveh.batch import model_for
         from batchveh.engines import make_engine, resolve_backend
 
         self.spec, self.n = spec, n
         self.backend = resolve_backend(backend)
         self.cfg = spec.stats_config()
-        try:
+        base = model_for(spec.vehicle, spec.scenario)
+        try:  # a course the backend cannot run is refused before any work
+            course.check_backend(base, self.backend, spec.params)
             self.engine = make_engine(
                 self.backend,
                 spec.scenario,
@@ -61,20 +64,14 @@ class ChunkRunner:
                 precision=spec.precision,
                 nthread=nthread,
             )
-        except ConfigError as err:  # a setting the backend cannot run: name the file
-            raise ConfigError(f"{spec.where}: {err}") from None
-        from batchveh.batch import model_for
-
-        try:  # a course the backend cannot run is refused before any work
-            course.check_backend(model_for(spec.vehicle, spec.scenario), self.backend, spec.params)
-        except ConfigError as err:
+        except ConfigError as err:  # a course or setting the backend cannot run: name the file
             raise ConfigError(f"{spec.where}: {err}") from None
         self.chunk = self.engine.chunk_size
         self.n_chunks = -(-n // self.chunk)
         self.table = spec.table()
         specs = parameter_specs(spec.vehicle)
         self.param_units = {k: specs[k].get("unit", "") for k in spec.params}
-        engine_meta = {"implementation": self.engine.implementation, "solver": solver_settings(spec)}
+        engine_meta = {"implementation": self.engine.implementation, "solver": solver_settings(base, spec.solver)}
         self.manifest = {
             "spec": spec.raw,
             "n_variants": n,
@@ -151,14 +148,12 @@ def device(backend: str, threads: int | None = None) -> str:
     return f"{threads} CPU thread{'s' * (threads > 1)} ({platform.processor() or platform.machine()})"
 
 
-def solver_settings(spec: SweepSpec) -> dict[str, Any]:
-    """The constraint solver and contact options every variant runs with (MuJoCo's names)."""
+def solver_settings(m: Any, solver: Any) -> dict[str, Any]:
+    """The constraint solver and contact options every variant runs with (MuJoCo's names): those of
+    the sweep's base MjModel `m` with the spec's `solver` options applied (to `m`)."""
     import mujoco
 
-    from batchveh.batch import model_for
-
-    m = model_for(spec.vehicle, spec.scenario)
-    apply_solver(m, spec.solver)
+    apply_solver(m, solver)
     return {
         "solver": mujoco.mjtSolver(m.opt.solver).name.removeprefix("mjSOL_").lower(),
         "iterations": int(m.opt.iterations),

@@ -286,6 +286,7 @@ def custom_laws(sc: Scenario, where: str = "scenario") -> tuple[laws.Law, ...]:
 
 
 def _check_custom(sc: Scenario, where: str) -> None:
+    """The custom kind's check: its laws parse (`custom_laws`)."""
     custom_laws(sc, where)
 
 
@@ -323,7 +324,7 @@ SCENARIOS: dict[str, Kind] = {
     "crab": Kind(crab, {"total_time": 8.0, "steer_deg": 30.0}),
     "pivot": Kind(pivot, {"total_time": 8.0, "ramp_time": 2.0}),
     "steer_in_place_rolling": Kind(steer_in_place_rolling, {"total_time": 3.0}),
-    "custom": Kind(custom, {}, check=lambda sc, where: _check_custom(sc, where)),
+    "custom": Kind(custom, {}, check=_check_custom),
 }  # batchveh.missions registers "mission" (`register`); batchveh's __init__ imports it
 
 
