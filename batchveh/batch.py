@@ -182,8 +182,9 @@ def make_batch(
         fields["geom_friction"] = fr
     if any(k in swept for k in GAINS):
         fields["actuator_gainprm"], fields["actuator_biasprm"] = _gains(model, params, scenario.towing)
+    # the rigid contact's rolling resistance is the drive joints' friction loss; the slip tyre's its own
     rolls = "wheel.rolling_resistance" in swept or vehicle.wheel.rolling_resistance > 0
-    if rolls and any(k in swept for k in ROLLING_INPUTS):
+    if vehicle.tyre.model == "rigid" and rolls and any(k in swept for k in ROLLING_INPUTS):
         fields["dof_frictionloss"] = _rolling(model, params, n)
     return VariantBatch(model=model, fields=fields, params=params, n=n)
 

@@ -19,7 +19,7 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from batchveh import stats
+from batchveh import stats, tyres
 from batchveh.batch import import_mjx, servo_damping
 from batchveh.missions import body_forces_fn
 from batchveh.scenarios import Scenario, control_schedule, controls_fn
@@ -42,24 +42,49 @@ def float_precision(name: str):
 
 
 def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: Layout, body_out):
+    """The scan's body over ((data, tyre state), reductions). `body_out(d, acc, sample, i)` returns
+    ((d, acc), output) as a scan body would."""
     ctrl_fn = controls_fn(scenario)
     forces_fn = body_forces_fn(scenario)  # a mission's slope in time; None otherwise
     dt = model.opt.timestep
+    tp = tyres.params(params, jnp) if lay.slip_tyre else None
 
     damping = servo_damping(params, scenario.towing, xp=jnp)
 
     def body(carry, i):
-        d, acc = carry
+        (d, ts), acc = carry
         ctrl = ctrl_fn(params, i * dt).astype(d.ctrl.dtype)
+        xfrc = None
         if forces_fn is not None:
-            d = d.replace(xfrc_applied=forces_fn(params, model.body_mass, i * dt).astype(d.xfrc_applied.dtype))
+            xfrc = forces_fn(params, model.body_mass, i * dt).astype(d.xfrc_applied.dtype)
+        if tp is not None:
+            ts, wrench = tyre_step(d, ts, tp, lay, dt)
+            wheels = tyres.wheel_wrench_xfrc(wrench, d.xfrc_applied.shape[-2], lay, jnp)
+            xfrc = wheels if xfrc is None else xfrc + wheels
+        if xfrc is not None:
+            d = d.replace(xfrc_applied=xfrc)
         qvel_prev = d.qvel
         d = mjx.step(model, d.replace(ctrl=ctrl))
         dv = (d.qvel - qvel_prev)[lay.motor_dof]
         s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, params["wheel.radius"], lay, damping, dv)
-        return body_out(d, acc, s, i)
+        (d, acc), out = body_out(d, acc, s, i)
+        return ((d, ts), acc), out
 
     return body
+
+
+def tyre_step(d: mjx.Data, ts, tp, lay: Layout, dt):
+    """The slip tyre's next state and wheel wrenches (4, 6) from MJX data after a step: positions
+    and contact forces of that step's forward pass, velocities now."""
+    kin = tyres.kinematics(d.xpos, d.xmat, d.qvel, lay, jnp)
+    fc = tyres.contact_force(d._impl.cfrc_ext, d.xfrc_applied, lay)
+    ts, wrench, _ = tyres.step(ts, kin, fc, tp, dt, jnp)
+    return ts, wrench.astype(d.xfrc_applied.dtype)
+
+
+def _init(d0: mjx.Data):
+    """The scan's first (data, tyre state)."""
+    return d0, tyres.init_state((), jnp, d0.qvel.dtype)
 
 
 def reports_solver_iterations(model: mjx.Model) -> bool:
@@ -101,7 +126,7 @@ def mjx_stats(
 
     body = _scan(model, params, scenario, lay, out)
     d0 = mjx.make_data(model) if data is None else data
-    init = (d0, (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
+    init = (_init(d0), (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
     (_, (acc, at_limit)), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps))
     cols = stats.finalize(acc, cfg, xp=jnp)
     if health:
@@ -125,7 +150,7 @@ def mjx_series(
 
     body = _scan(model, params, scenario, lay, out)
     d0 = mjx.make_data(model) if data is None else data
-    _, series = jax.lax.scan(body, (d0, ()), jnp.arange(n_steps))
+    _, series = jax.lax.scan(body, (_init(d0), ()), jnp.arange(n_steps))
     return series
 
 
@@ -144,14 +169,37 @@ def mujoco_steps(
         ctrls = np.asarray(jax.jit(control_schedule(scenario))(p, times))
         if forces_fn is not None:
             forces = np.asarray(jax.jit(jax.vmap(forces_fn, in_axes=(None, None, 0)))(p, m.body_mass, times))
+    lay = layout(m)
+    tyre = MujocoTyre(m, lay, p) if lay.slip_tyre else None
     mujoco.mj_forward(m, d)
     yield d, None
     for i in range(n_steps):
         d.ctrl[:] = ctrls[i]
-        if forces_fn is not None:
-            d.xfrc_applied[:] = forces[i]
+        xfrc = forces[i] if forces_fn is not None else np.zeros_like(d.xfrc_applied)
+        if tyre is not None:
+            xfrc = xfrc + tyre.wrench(d.xpos, d.xmat.reshape(-1, 3, 3), d.qvel, d.cfrc_ext, d.xfrc_applied)
+        d.xfrc_applied[:] = xfrc
         mujoco.mj_step(m, d)
         yield d, ctrls[i]
+
+
+class MujocoTyre:
+    """The slip tyre between MuJoCo C steps, in numpy, for one simulation or a batch (leading
+    axes). `wrench` takes the last forward pass's positions and contact forces, the velocities
+    now, and the xfrc_applied that forward pass ran with; it returns xfrc_applied for the tyres
+    alone and advances the tyre state."""
+
+    def __init__(self, m: mujoco.MjModel, lay: Layout, params: Mapping[str, Any]):
+        self.lay, self.dt, self.nbody = lay, float(m.opt.timestep), m.nbody
+        self.tp = tyres.params({k: np.asarray(v, np.float64) for k, v in params.items()}, np)
+        self.state = tyres.init_state(np.shape(params["friction"]), np)
+        self.info: dict[str, np.ndarray] = {}
+
+    def wrench(self, xpos, xmat, qvel, cfrc_ext, xfrc_applied) -> np.ndarray:
+        kin = tyres.kinematics(xpos, xmat, qvel, self.lay, np)
+        fc = tyres.contact_force(cfrc_ext, xfrc_applied, self.lay)
+        self.state, w, self.info = tyres.step(self.state, kin, fc, self.tp, self.dt, np)
+        return tyres.wheel_wrench_xfrc(w, self.nbody, self.lay, np)
 
 
 def mujoco_series(

@@ -30,6 +30,7 @@ import mujoco
 import numpy as np
 
 from batchveh.config import ConfigError, field, from_mapping, load_yaml
+from batchveh.tyres import Tyre
 
 CORNERS = ("lf", "rf", "lr", "rr")
 # (x sign, y sign) of each corner
@@ -147,6 +148,9 @@ class Vehicle:
     # touch each other and the hubs touch the ground
     contacts: Literal["ground", "all"] = "ground"
     contact_model: ContactModel = ContactModel()
+    # the wheel-ground model: 'slip' (a slip tyre on frictionless contacts) or 'rigid' (MuJoCo's
+    # frictional contact, contact_model above); batchveh/tyres.py
+    tyre: Tyre = Tyre()
 
     @property
     def total_mass(self) -> float:
@@ -225,8 +229,9 @@ def ground_geom(name: str, shape: str, v: Vehicle, friction: float, time_step: f
     Every ground geom has priority 1, the scenario's `friction` and the contact model's solimp and
     solref, so a wheel meets the same contact on each of them (the plane, a step's box, a bump)."""
     cm = v.contact_model
+    condim = 1 if v.tyre.model == "slip" else 3  # the slip tyre gives the tangential forces
     return (
-        f'<geom name="{name}" {shape} priority="1" friction="{friction:.10g} 0 0" '
+        f'<geom name="{name}" {shape} priority="1" condim="{condim}" friction="{friction:.10g} 0 0" '
         f'solimp="{cm.impedance:.10g} {cm.impedance:.10g} 0.001 0.5 2" '
         f'solref="{contact_time_constant(cm, time_step):.10g} 1" contype="2" conaffinity="1" material="grid"/>'
     )
@@ -248,7 +253,9 @@ def mjcf(
     larger). With `v.contacts == "ground"`, wheels collide with the ground and nothing else.
     """
     c, w, h, p, mo = v.chassis, v.wheel, v.hub, v.payload, v.motors
-    rolling = rolling_resistance_torque(w.rolling_resistance, w.radius, v.total_mass, abs(gravity[2]))
+    # rolling resistance: the drive joints' friction loss on the rigid contact; the slip tyre has its own
+    c_rr = w.rolling_resistance if v.tyre.model == "rigid" else 0.0
+    rolling = rolling_resistance_torque(c_rr, w.radius, v.total_mass, abs(gravity[2]))
     # contype/conaffinity bits: wheels are 1, the ground 2; a wheel meets the ground
     # (1 & 1) but not another wheel (1 & 2 = 0) unless v.contacts is "all".
     wheel_aff = 2 if v.contacts == "ground" else 3
@@ -306,10 +313,17 @@ def mjcf(
             f'<general name="steer_{name}_v" joint="steer_{name}" gainprm="{mo.steer_kv:.10g}" '
             f'biastype="affine" biasprm="0 0 {-mo.steer_kv:.10g}"/>'
         )
+    # the slip tyre reads each wheel's contact force from cfrc_ext, which every engine computes
+    # (mj_rnePostConstraint) when a sensor needs it: one accelerometer on the chassis
+    sensors = (
+        '\n  <sensor><accelerometer name="chassis_acc" site="chassis_centre"/></sensor>' if v.tyre.model == "slip" else ""
+    )
+    # frictionless contacts have no cone; MJX supports condim 1 only with the pyramidal one
+    cone = v.contact_model.cone if v.tyre.model == "rigid" else "pyramidal"
     ground_assets, ground_xml = ground or ("", ground_geom(GROUND, 'type="plane" size="0 0 1"', v, friction, time_step))
     return f"""<mujoco model="batchveh">
   <option timestep="{time_step:.10g}" integrator="implicitfast" gravity="{_fmt(*gravity)}"
-          cone="{v.contact_model.cone}" impratio="{v.contact_model.impratio:.10g}"/>
+          cone="{cone}" impratio="{v.contact_model.impratio:.10g}"/>
   <visual><global offwidth="640" offheight="480"/></visual>
   <asset>
     <texture name="sky" type="skybox" builtin="gradient" rgb1=".5 .7 .9" rgb2=".9 .9 .95" width="64" height="64"/>
@@ -321,6 +335,7 @@ def mjcf(
     {ground_xml}
     <body name="chassis" pos="{_fmt(c.x_cg, c.y_cg, c.z_cg)}">
       <freejoint name="chassis"/>
+      <site name="chassis_centre" size="0.01"/>
       <geom name="chassis" type="box" size="{_fmt(c.length / 2, c.width / 2, c.height / 2)}"
             mass="{c.mass:.10g}" contype="0" conaffinity="0" rgba=".8 .8 .8 1"/>
       <geom name="payload" type="sphere" size="0.02" pos="{_fmt(p.x, p.y, p.z)}" mass="{p.mass:.10g}"
@@ -329,7 +344,7 @@ def mjcf(
   </worldbody>
   <actuator>
     {chr(10).join("    " + a for a in act).strip()}
-  </actuator>
+  </actuator>{sensors}
 </mujoco>
 """
 
@@ -357,6 +372,10 @@ class Layout:
     steer_vel_act: np.ndarray
     ground_geom: int
     wheel_geoms: np.ndarray
+    chassis_body: int
+    hub_bodies: np.ndarray  # (4,) in CORNERS order
+    wheel_bodies: np.ndarray
+    slip_tyre: bool  # the ground's contacts are frictionless: batchveh.tyres gives the tangential forces
 
 
 def layout(m: mujoco.MjModel) -> Layout:
@@ -375,4 +394,8 @@ def layout(m: mujoco.MjModel) -> Layout:
         steer_vel_act=acts("steer", "v"),
         ground_geom=m.geom(GROUND).id,
         wheel_geoms=np.array([m.geom(f"wheel_{c}").id for c in CORNERS]),
+        chassis_body=m.body("chassis").id,
+        hub_bodies=np.array([m.body(f"hub_{c}").id for c in CORNERS]),
+        wheel_bodies=np.array([m.body(f"wheel_{c}").id for c in CORNERS]),
+        slip_tyre=bool(m.geom_condim[m.geom(GROUND).id] == 1),
     )

@@ -23,7 +23,7 @@ import numpy as np
 from batchveh import stats
 from batchveh.batch import VariantBatch, servo_damping
 from batchveh.missions import body_forces_fn
-from batchveh.rollout import float_precision
+from batchveh.rollout import MujocoTyre, float_precision
 from batchveh.scenarios import Scenario, control_schedule
 from batchveh.vehicle import layout
 
@@ -127,6 +127,8 @@ class MujocoEngine:
         b = Batch(m, nsim=batch.n, nthread=self.nthread)
         for name, values in batch.fields.items():
             b.expand(name)[:] = values
+        # the slip tyre acts between steps: bound before the reset, so its forward pass fills them
+        tyre = _TyreStepper(b, m, lay, batch.params) if lay.slip_tyre else None
         b.reset()
         radius = np.asarray(batch.params["wheel.radius"], np.float64)[:, None]
         damping = servo_damping(batch.params, self.scenario.towing)[:, None, :]  # (n, 1, 8)
@@ -196,10 +198,13 @@ class MujocoEngine:
                     r: f[: batch.n * len(steps) * sizes[r]].reshape(batch.n, len(steps), -1)
                     for r, f in flat[k % 2].items()
                 }
-                try:
-                    rec = b.rollout(len(steps), control=ctrls, control_spec=spec, record=tuple(sizes), out=out)
-                except SimulationError:
-                    rec = out  # failed simulations are marked below; their records repeat
+                if tyre is not None:
+                    rec = tyre.rollout(ctrls, out)
+                else:
+                    try:
+                        rec = b.rollout(len(steps), control=ctrls, control_spec=spec, record=tuple(sizes), out=out)
+                    except SimulationError:
+                        rec = out  # failed simulations are marked below; their records repeat
                 failed = failed | (np.asarray(b.status) != 0) | (b.warning[:, UNSTABLE, 1].sum(-1) > 0)
                 if pending is not None:
                     accs = pending.result()
@@ -212,4 +217,36 @@ class MujocoEngine:
             cols = list(tail.map(lambda acc: stats.finalize(acc, self.cfg), accs))
         out = {k: np.concatenate([c[k] for c in cols]) for k in cols[0]}
         out["solver_limit_share"] = at_limit / self.cfg.n_steps
+        return out
+
+
+class _TyreStepper:
+    """Steps a Batch one step at a time with the slip tyre's wrenches between the steps, recording
+    what `Batch.rollout` would (qpos, qvel, qfrc_actuator, solver_niter after each step)."""
+
+    def __init__(self, b, m: mujoco.MjModel, lay, params):
+        self.b, self.nu, self.nbody = b, m.nu, m.nbody
+        self.tyre = MujocoTyre(m, lay, params)
+        self.live = {k: b.bind(k) for k in ("qpos", "qvel", "qfrc_actuator", "solver_niter")}
+        self.ctrl, self.xfrc = b.bind("ctrl"), b.bind("xfrc_applied")
+        self.xpos, self.xmat, self.cfrc = b.bind("xpos"), b.bind("xmat"), b.bind("cfrc_ext")
+
+    def rollout(self, ctrls: np.ndarray, out: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """ctrls (n, nstep, nu [+ nbody * 6 of a mission's xfrc_applied]); records into `out`."""
+        from mujoco.batch import SimulationError
+
+        n = ctrls.shape[0]
+        for k in range(ctrls.shape[1]):
+            self.ctrl[:] = ctrls[:, k, : self.nu]
+            xmat = self.xmat.reshape(n, self.nbody, 3, 3)
+            wrench = self.tyre.wrench(self.xpos, xmat, self.live["qvel"], self.cfrc, self.xfrc)
+            if ctrls.shape[2] > self.nu:  # a mission's slope forces
+                wrench = wrench + ctrls[:, k, self.nu :].reshape(n, self.nbody, 6)
+            self.xfrc[:] = wrench
+            try:
+                self.b.step()
+            except SimulationError:
+                pass  # failed simulations are marked by the caller from the batch's status
+            for name, arr in out.items():
+                arr[:, k] = self.live[name].reshape(n, -1)
         return out
