@@ -104,7 +104,6 @@ def mean_patch_radius(half_length, half_width, xp=np):
 def params(p: Mapping[str, Any], xp=np) -> dict[str, Any]:
     """The tyre's per-variant inputs from the flat parameters, each (..., 1) to broadcast over the
     four wheels."""
-    mass = p["chassis.mass"] + 4 * (p["wheel.mass"] + p["hub.mass"]) + p["payload.mass"]
 
     def col(x):
         return xp.asarray(x)[..., None]

@@ -315,9 +315,8 @@ def mjcf(
         )
     # the slip tyre reads each wheel's contact force from cfrc_ext, which every engine computes
     # (mj_rnePostConstraint) when a sensor needs it: one accelerometer on the chassis
-    sensors = (
-        '\n  <sensor><accelerometer name="chassis_acc" site="chassis_centre"/></sensor>' if v.tyre.model == "slip" else ""
-    )
+    accelerometer = '<accelerometer name="chassis_acc" site="chassis_centre"/>'
+    sensors = f"\n  <sensor>{accelerometer}</sensor>" if v.tyre.model == "slip" else ""
     # frictionless contacts have no cone; MJX supports condim 1 only with the pyramidal one
     cone = v.contact_model.cone if v.tyre.model == "rigid" else "pyramidal"
     ground_assets, ground_xml = ground or ("", ground_geom(GROUND, 'type="plane" size="0 0 1"', v, friction, time_step))
