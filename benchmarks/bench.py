@@ -51,6 +51,7 @@ SOLVERS = {  # name -> (solver, iterations, ls_iterations)
 
 WHEEL_COLLISION = "cylinder"  # --wheel-collision
 CONTACT = None  # --contact CONE/IMPRATIO[/IMPEDANCE], e.g. pyramidal/1 (default: the vehicle's own)
+TYRE = None  # the wheel-ground model of the rows being measured (--tyres): 'slip' or 'rigid'
 
 
 def slope_table(n: int, seed: int = 0):
@@ -62,6 +63,8 @@ def slope_table(n: int, seed: int = 0):
     spec = load_spec(Path(__file__).resolve().parent.parent / "sweeps" / "slope.yaml")
     wheel = dataclasses.replace(spec.vehicle.wheel, collision=WHEEL_COLLISION)
     vehicle = dataclasses.replace(spec.vehicle, wheel=wheel)
+    if TYRE:
+        vehicle = dataclasses.replace(vehicle, tyre=dataclasses.replace(vehicle.tyre, model=TYRE))
     if CONTACT:
         cone, impratio, *impedance = CONTACT.split("/")
         cm = dataclasses.replace(vehicle.contact_model, cone=cone, impratio=float(impratio))
@@ -447,6 +450,13 @@ def main():
         choices=["default", "high", "highest"],
         help="JAX matmul precisions to compare for mjx (GPU float32 'default' may use TF32)",
     )
+    ap.add_argument(
+        "--tyres",
+        nargs="+",
+        default=["slip"],
+        choices=["slip", "rigid"],
+        help="wheel-ground models of the GPU rows, each with its own C f64 reference; the CPU peer runs rigid",
+    )
     ap.add_argument("--wheel-collision", default="cylinder", choices=["cylinder", "sphere"])
     ap.add_argument("--courses", nargs="*", default=[], choices=list(COURSES), help="ground: flat, step, terrain")
     ap.add_argument("--course-backend", default="warp", choices=["mujoco", "mjx", "warp"], help="engine of --courses")
@@ -457,9 +467,10 @@ def main():
         help="CONE/IMPRATIO[/IMPEDANCE], e.g. pyramidal/1 or elliptic/10/0.9 (default: the vehicle's)",
     )
     args = ap.parse_args()
-    global WHEEL_COLLISION, CONTACT
+    global WHEEL_COLLISION, CONTACT, TYRE
     WHEEL_COLLISION = args.wheel_collision
     CONTACT = args.contact
+    TYRE = args.tyres[0]
     import jax
     import mujoco
 
@@ -485,13 +496,19 @@ def main():
         "wheel_collision": args.wheel_collision,
         "contact": args.contact
         or "vehicle default ({0.cone}/{0.impratio:g}/{0.impedance:g})".format(Vehicle().contact_model),
+        "tyres": args.tyres,
+        "peer_tyre": args.tyres[0],
     }
 
-    # the converged reference on a fixed sample
-    _, ref_table = slope_table(args.ref_variants, seed=1)
-    t0 = time.perf_counter()
-    ref, *_ = run_backend("mujoco", spec, ref_table, args.ref_variants, "default", x64=True)
-    print(f"reference: {args.ref_variants} variants in {time.perf_counter() - t0:.1f} s", flush=True)
+    def reference():
+        """The converged reference on a fixed sample, MuJoCo C float64, for the current TYRE."""
+        spec, ref_table = slope_table(args.ref_variants, seed=1)
+        t0 = time.perf_counter()
+        ref, *_ = run_backend("mujoco", spec, ref_table, args.ref_variants, "default", x64=True)
+        print(f"reference ({TYRE}): {args.ref_variants} variants in {time.perf_counter() - t0:.1f} s", flush=True)
+        return spec, ref_table, ref
+
+    spec, ref_table, ref = reference()
 
     raw_rate = info["peer"] = None
     if not args.skip_cpu:
@@ -526,13 +543,21 @@ def main():
         print(rows[-4:], flush=True)
 
     configs = [(p == "f64", s, mm) for p in args.precisions for s in args.solvers for mm in args.matmul]
-    for x64, solver, mm in configs:
-        cols_acc, *_ = run_backend("mjx", spec, ref_table, args.ref_variants, solver, x64, mm)
-        acc = accuracy(cols_acc, ref)
-        label = f"batchveh mjx {solver} {'f64' if x64 else 'f32'}{'' if mm == 'highest' else ' mm=' + mm}"
-        sized_rows(rows, label, args.mjx_sizes, n_steps, acc, ("mjx", spec, solver, x64, mm))
-    for solver in args.warp_solvers if args.warp_sizes or args.direct_sizes else []:
-        warp_rows(rows, spec, ref_table, ref, solver, args.warp_sizes, args.direct_sizes, n_steps)
+    for k, tyre in enumerate(args.tyres):
+        TYRE = tyre
+        if k:  # the first tyre's reference is above
+            spec, ref_table, ref = reference()
+        start = len(rows)
+        for x64, solver, mm in configs:
+            cols_acc, *_ = run_backend("mjx", spec, ref_table, args.ref_variants, solver, x64, mm)
+            acc = accuracy(cols_acc, ref)
+            label = f"batchveh mjx {solver} {'f64' if x64 else 'f32'}{'' if mm == 'highest' else ' mm=' + mm}"
+            sized_rows(rows, label, args.mjx_sizes, n_steps, acc, ("mjx", spec, solver, x64, mm))
+        for solver in args.warp_solvers if args.warp_sizes or args.direct_sizes else []:
+            warp_rows(rows, spec, ref_table, ref, solver, args.warp_sizes, args.direct_sizes, n_steps)
+        for r in rows[start:]:
+            r["name"] = f"[{tyre}] {r['name']}"
+            r["tyre"] = tyre
     if args.courses:
         course_rows(rows, args.courses, args.course_backend, args.course_sizes, n_steps)
     # the peer again after the GPU rows: the mean of both
