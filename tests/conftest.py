@@ -3,7 +3,11 @@
 import numpy as np
 import pytest
 
+from batchveh.tyres import Tyre
 from batchveh.vehicle import Vehicle
+
+# MuJoCo's frictional contact (`tyre: {model: rigid}`): the tests of that contact's own behaviour
+RIGID = Vehicle(tyre=Tyre(model="rigid"))
 
 # The four-wheel drive sum on a steady climb against m g sin(s) r: the soft contact sinks 1.5 mm,
 # so the lever arm is about r - 0.75 mm (tests/test_physics.py); measured -2.8e-3 to -3.9e-3 on

@@ -80,6 +80,14 @@ MJX_MEAN_ATOL = 1e-6  # N m
 MJX_ROLLING_STEP_ATOL = 1e-6
 
 
+@pytest.fixture(scope="module")
+def vehicle():
+    """This study is of MuJoCo's frictional contact; the slip tyre's scrub is in tests/test_tyres.py."""
+    from conftest import RIGID
+
+    return RIGID
+
+
 def _scenario(kind, **kw):
     return make_scenario(kind, **kw)
 
