@@ -52,6 +52,42 @@ def enable_compile_cache() -> None:
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 
+def init_warp_without_cuda() -> None:
+    """Initialise Warp quietly on a machine without the CUDA driver (process-wide: the CLI's `main` calls
+    it before a warp sweep). Warp's native library looks for libcuda when it initialises and, where
+    there is none, writes 'Warp CUDA warning: Could not find or load the NVIDIA CUDA driver' to file
+    descriptor 2, past sys.stderr and Warp's log level. Here descriptor 2 goes to a temporary file for
+    that one call, and every other line it wrote is passed on."""
+    import ctypes
+    import tempfile
+
+    for lib in ("libcuda.so", "libcuda.so.1", "nvcuda.dll"):  # where Warp looks
+        try:
+            ctypes.CDLL(lib)
+            return  # a driver: Warp finds it and has nothing to warn about
+        except OSError:
+            pass
+    try:
+        import warp
+    except (ImportError, RuntimeError):
+        return  # the engine says what is missing
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            with warp.ScopedLogLevel(warp.LOG_ERROR):
+                warp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        tmp.seek(0)
+        lines = tmp.read().decode(errors="replace").splitlines()
+    for line in lines:
+        if "Could not find or load the NVIDIA CUDA driver" not in line:
+            print(line, file=sys.stderr)
+
+
 def count_variants(spec: SweepSpec, limit: int | None = None, max_variants: int = MAX_VARIANTS) -> int:
     """The number of variants to run; ConfigError above `max_variants`."""
     n = len(spec.table())
@@ -324,6 +360,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.plots and "://" in str(args.out or spec.output):
             raise ConfigError("--plots: figures are written to a local folder; give a local --out for them")
         enable_compile_cache()
+        from batchveh.engines import resolve_backend
+
+        if resolve_backend(args.backend or spec.backend) == "warp" and args.executor == "local":
+            init_warp_without_cuda()
         executor = None
         if args.executor == "ray":
             from batchveh import cluster
