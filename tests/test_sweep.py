@@ -21,7 +21,7 @@ from batchveh.sweep import main, run_sweep
 # - the four-wheel sum, which physics fixes, within SUM_ATOL N m;
 # - each wheel's mean within SPLIT_ATOL N m: four wheels locked to one speed are
 #   over-constrained, and the split is set by contact compliance and solver details
-#   (measured: 2.1 N m apart at 0 deg, mu 0.3, 1.5 s; README "The over-constraint").
+#   (measured: 2.1 N m apart at 0 deg, mu 0.3, 1.5 s; docs/physics.md "Four locked wheels").
 SUM_ATOL = 0.02  # N m, near zero torque
 SUM_RTOL = 2e-3  # measured 9.5e-4 at 10 deg, mu 0.3
 SPLIT_ATOL = 2.5
