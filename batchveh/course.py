@@ -26,7 +26,7 @@ obstacle: status `stuck`, from the variant's own final position and obstacle.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import mujoco
 import numpy as np
@@ -35,7 +35,6 @@ from batchveh.config import ConfigError, did_you_mean
 from batchveh.vehicle import GROUND, ground_geom
 
 if TYPE_CHECKING:
-    from batchveh.scenarios import Scenario
     from batchveh.vehicle import Vehicle
 
 OBSTACLES = ("none", "step", "bump", "pothole", "terrain")
@@ -72,6 +71,24 @@ JAX_CANNOT_COLLIDE = {("cylinder", "box"), ("cylinder", "hfield")}
 # fields MuJoCo Warp keeps one per model, not per world (tests/test_course.py checks this against MJX)
 WARP_PER_MODEL = ("hfield_data",)
 _TYPE = {int(t): name.removeprefix("mjGEOM_").lower() for name, t in mujoco.mjtGeom.__members__.items()}
+
+
+class Ground(Protocol):
+    """The scenario fields the ground is built from (`scenarios.Scenario` has them): scenarios import
+    this module, so it names what it reads instead of importing the Scenario."""
+
+    obstacle: str
+    obstacle_x: float  # m
+    friction: float
+    time_step: float  # s
+    step_height: float  # m
+    bump_height: float  # m
+    bump_length: float  # m
+    pothole_depth: float  # m
+    pothole_width: float  # m
+    terrain_amplitude: float  # m
+    terrain_wavelength: float  # m
+    terrain_seed: float
 
 
 def check_obstacle(kind: Any, where: str) -> None:
@@ -172,7 +189,7 @@ def far_edge(p: Mapping[str, Any], obstacle: str) -> Any:
     return near_edge(p) + extent
 
 
-def ground(v: Vehicle, sc: Scenario) -> tuple[str, str]:
+def ground(v: Vehicle, sc: Ground) -> tuple[str, str]:
     """(assets, worldbody MJCF) of the scenario's ground, for `vehicle.mjcf`.
 
     With an obstacle every ground geom sits in a mocap body at the origin: MuJoCo Warp places the
@@ -183,7 +200,7 @@ def ground(v: Vehicle, sc: Scenario) -> tuple[str, str]:
     return assets, geoms if sc.obstacle == "none" else f'<body name="course" mocap="true">{geoms}</body>'
 
 
-def _ground(v: Vehicle, sc: Scenario) -> tuple[str, str]:
+def _ground(v: Vehicle, sc: Ground) -> tuple[str, str]:
     geom = lambda name, shape: ground_geom(name, shape, v, sc.friction, sc.time_step)  # noqa: E731
     plane = 'type="plane" size="0 0 1"'
     if sc.obstacle == "none":
@@ -230,7 +247,7 @@ def _ground(v: Vehicle, sc: Scenario) -> tuple[str, str]:
     return asset, geom(GROUND, plane) + geom(PREFIX + "terrain", shape)
 
 
-def write_heights(m: mujoco.MjModel, sc: Scenario) -> None:
+def write_heights(m: mujoco.MjModel, sc: Ground) -> None:
     """Write the terrain's heights into a compiled model's hfield_data (m: the hfield's top is 1 m)."""
     if sc.obstacle == "terrain":
         m.hfield_data[:] = terrain_heights(sc.terrain_amplitude, sc.terrain_wavelength, sc.terrain_seed).ravel()

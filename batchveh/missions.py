@@ -28,7 +28,8 @@ same name (`speed_kmh`, `turn_radius`, `steer_deg`, `yaw_rate_dps`; a climb's `s
 so sweeping those fields sweeps every segment that uses them; other segments are flat unless
 they give `slope_deg`. A sweep that sweeps, fixes or sets a field the mission does not read
 (`check_sweep`) is refused. The mission's `total_time` is the sum of the durations (filled in), and
-the segment boundaries fall on the nearest time steps.
+the segment boundaries fall on the nearest time steps. A mission without `segments` runs
+`EXAMPLE_SEGMENTS`.
 
 The slope changes in time: the model keeps the scenario's gravity, tilted by `slope_deg` (as
 `batch.make_batch` builds it), and the difference to the mission's slope at law time t acts as
@@ -457,8 +458,24 @@ def body_forces_fn(sc: Scenario) -> Callable[[Mapping[str, Any], Any, Any], Any]
     return forces
 
 
+# The duty cycle of a mission whose segments are left out (`python -m batchveh.run mission`): 18 s at
+# the scenario's speed_kmh and turn_radius, with a 10 deg climb; sweeps/mission.yaml is a fuller one
+EXAMPLE_SEGMENTS = (
+    {"kind": "accelerate", "duration": 2.0},
+    {"kind": "cruise", "duration": 2.0},
+    {"kind": "climb", "duration": 4.0, "slope_deg": 10.0, "transition": 1.5},
+    {"kind": "cruise", "duration": 2.0},
+    {"kind": "turn", "turn": "ackermann", "duration": 4.0},
+    {"kind": "stop", "duration": 2.0},
+    {"kind": "steer", "duration": 2.0, "steer_deg": 30.0},
+)
+
+
 def complete_mission(fields: dict[str, Any], where: str) -> dict[str, Any]:
-    """A mission's fields with total_time, the sum of its segments' durations, where not given."""
+    """A mission's fields with EXAMPLE_SEGMENTS where no segments are given, and total_time, the sum
+    of the segments' durations, where not given."""
+    if "segments" not in fields:
+        fields = {**fields, "segments": [dict(s) for s in EXAMPLE_SEGMENTS]}
     return fields if "total_time" in fields else {**fields, "total_time": mission_duration(fields, where)}
 
 

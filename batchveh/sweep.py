@@ -33,12 +33,12 @@ if TYPE_CHECKING:
 
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_PARTIAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
 
-# Rough rates in variant-steps/s for the dry run's estimate, measured with the default (elliptic)
-# contact (benchmarks/RESULTS.md): MuJoCo C 7.8e4 on 2 threads (the main job on a fresh clone);
-# MJX on the CPU 1.0e4 on 2 cores; the warp engine 4.5e3 on 2 CPU cores (256 variants); on one
-# H200, MJX (JAX implementation) 1.4e6 and the warp engine 4.98e6 (h200-warp-elliptic10.json)
+# Rough rates in variant-steps/s for the dry run's estimate, with an elliptic contact (docs/performance.md):
+# MuJoCo C 7.8e4 on 2 threads (the main job on a fresh clone); MJX on the CPU 1.0e4 on 2 cores; the warp
+# engine 4.5e3 on 2 CPU cores (256 variants); on one H200, MJX (JAX implementation) 1.4e6 and the warp
+# engine 6.74e6 with the default contact (benchmarks/results/h200-warp-soft.json)
 RATE_PER_CPU = {"mujoco": 3.9e4, "mjx": 5.0e3, "warp": 2.2e3}  # per MuJoCo thread or CPU core
-RATE_PER_GPU = {"mjx": 1.4e6, "warp": 5.0e6}
+RATE_PER_GPU = {"mjx": 1.4e6, "warp": 6.7e6}
 COMPILE_S = {"mujoco": 2.0, "mjx-cpu": 60.0, "mjx-gpu": 15.0, "warp-cpu": 40.0, "warp-gpu": 60.0}
 
 
@@ -50,6 +50,42 @@ def enable_compile_cache() -> None:
     path = os.environ.get("BATCHVEH_CACHE", os.path.join(os.path.expanduser("~"), ".cache", "batchveh", "jax"))
     jax.config.update("jax_compilation_cache_dir", path)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+
+
+def init_warp_without_cuda() -> None:
+    """Initialise Warp quietly on a machine without the CUDA driver (process-wide: the CLI's `main` calls
+    it before a warp sweep). Warp's native library looks for libcuda when it initialises and, where
+    there is none, writes 'Warp CUDA warning: Could not find or load the NVIDIA CUDA driver' to file
+    descriptor 2, past sys.stderr and Warp's log level. Here descriptor 2 goes to a temporary file for
+    that one call, and every other line it wrote is passed on."""
+    import ctypes
+    import tempfile
+
+    for lib in ("libcuda.so", "libcuda.so.1", "nvcuda.dll"):  # where Warp looks
+        try:
+            ctypes.CDLL(lib)
+            return  # a driver: Warp finds it and has nothing to warn about
+        except OSError:
+            pass
+    try:
+        import warp
+    except (ImportError, RuntimeError):
+        return  # the engine says what is missing
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            with warp.ScopedLogLevel(warp.LOG_ERROR):
+                warp.init()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        tmp.seek(0)
+        lines = tmp.read().decode(errors="replace").splitlines()
+    for line in lines:
+        if "Could not find or load the NVIDIA CUDA driver" not in line:
+            print(line, file=sys.stderr)
 
 
 def count_variants(spec: SweepSpec, limit: int | None = None, max_variants: int = MAX_VARIANTS) -> int:
@@ -133,7 +169,8 @@ def run_sweep(
             note(
                 "MJX in float32 with the elliptic friction cone: four-wheel sums hold (1e-4), per-wheel "
                 "torques drift by 6% (median) on a GPU; for per-wheel values give precision: f64, or the fast "
-                "contact preset vehicle.contact_model {cone: pyramidal, impratio: 1, impedance: 0.9} (README, Speed)"
+                "contact preset vehicle.contact_model {cone: pyramidal, impratio: 1, impedance: 0.9} "
+                "(docs/user-guide.md, Backends)"
             )
         if spec.scenario.obstacle == "terrain":
             note(
@@ -273,7 +310,7 @@ def main(argv: list[str] | None = None) -> int:
         description=__doc__.split("\n\n")[0],
         epilog="Exit codes: 0 done, 2 bad spec, argument or file, 3 results exist or another sweep writes "
         "there, 4 partial (with --executor ray: chunks that kept failing are named, the others are written; "
-        "--resume runs the rest), 130 interrupted. The spec format is in README.md.",
+        "--resume runs the rest), 130 interrupted. The spec format: docs/user-guide.md.",
     )
     parser.add_argument("spec", help="sweep YAML, e.g. sweeps/slope.yaml")
     parser.add_argument(
@@ -324,6 +361,10 @@ def main(argv: list[str] | None = None) -> int:
         if args.plots and "://" in str(args.out or spec.output):
             raise ConfigError("--plots: figures are written to a local folder; give a local --out for them")
         enable_compile_cache()
+        from batchveh.engines import resolve_backend
+
+        if resolve_backend(args.backend or spec.backend) == "warp" and args.executor == "local":
+            init_warp_without_cuda()
         executor = None
         if args.executor == "ray":
             from batchveh import cluster

@@ -16,7 +16,7 @@ mean and peak (steady window, raw and 50 ms low-pass) torques of a fixed sample
 of the slope variants against MuJoCo C in float64 with tolerance 1e-12 and 200
 iterations; relative errors, non-slipping and slipping variants reported apart.
 Results are printed as a table and written to benchmarks/results/<tag>.json;
-render.py folds them into RESULTS.md.
+render.py folds them into docs/performance.md.
 """
 
 from __future__ import annotations
@@ -399,7 +399,7 @@ def accuracy(cols, ref):
 
     Errors are |x - ref| / max(|ref|, 1 N m). 'sum' is the four-wheel drive sum, which
     physics fixes; 'wheel' pools the four drive motors, whose split among wheels locked
-    to one speed is ill-conditioned (README "The over-constraint").
+    to one speed is ill-conditioned (docs/physics.md, "Four locked wheels").
     """
     out = {}
     slip = np.asarray(ref["slipping"], bool)

@@ -1,6 +1,9 @@
-"""Write benchmarks/RESULTS.md from benchmarks/results/*.json and benchmarks/NOTES.md.
+"""Write docs/performance.md from benchmarks/NOTES.md, benchmarks/ARCHIVE.md and benchmarks/results/*.json.
 
-python benchmarks/render.py
+    python benchmarks/render.py
+
+Today's result files (CURRENT, and every end-to-end file) come first, after NOTES.md; every other
+file goes to the archive section, after ARCHIVE.md.
 """
 
 import json
@@ -8,6 +11,30 @@ import statistics
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+OUT = HERE.parent / "docs" / "performance.md"
+RAW = "../benchmarks/results"  # the result files, as seen from docs/
+
+# today's results: what each file measured. A file missing here is archived.
+CURRENT = {
+    "h200-warp-soft.json": "The warp engine, default contact",
+    "h200-warp-impedance09.json": "The warp engine, contact impedance 0.9",
+    "h200-warp-pyramidal1.json": "The warp engine, the fast contact preset",
+    "h200-warp-courses-warm.json": "Obstacles on the warp engine, warmed up",
+    "h200-warp-courses-cold.json": "Obstacles on the warp engine, first launch on a fresh machine",
+    "cpu-tiny-courses.json": "Obstacles on MuJoCo C, 16 variants on 2 cores",
+    "h200-warp-largest.json": "The largest warp batch",
+    "cpu-2core-overhead.json": "batchveh mujoco against raw mujoco.batch on 2 cores",
+    "h200x2-ray-gpus.json": "Ray against the in-process sweep, two H200",
+    "cpu-2core-ray-gpus.json": "Ray against the in-process sweep, 2 cores",
+}
+# rows of a current file that measured code since removed (batchveh's fused solver on MJX)
+ARCHIVED_ROWS = {"h200-warp-pyramidal1.json": "fused"}
+# what a current file's own fields do not say
+FILE_NOTES = {
+    "h200-warp-soft.json": "Its contact label reads elliptic/10: bench.py then labelled the vehicle's default from a "
+    "stale constant. The default it ran was elliptic, impratio 100, impedance 0.25; the impedance-0.9 run beside it "
+    "names its contact from --contact.",
+}
 ERR_KEYS = ("noslip_sum_mean", "noslip_wheel_mean", "noslip_wheel_peak", "noslip_wheel_peak_lp")
 
 
@@ -64,7 +91,7 @@ def scaling_table(files):
 def profile_section(d, name):
     lines = [
         f"`python benchmarks/profile_step.py` on {d['device']}, {d['n']} variants, one vmapped step from a settled "
-        f"state (best of 10); kernels from a JAX profiler trace of 3 steps (raw data: `benchmarks/results/{name}`).",
+        f"state (best of 10); kernels from a JAX profiler trace of 3 steps (raw data: [{name}]({RAW}/{name})).",
         "",
         "| solver | code | ms per step | variant-steps/s | compile s | kernels per step | kernel ms per step |",
         "| --- | --- | ---: | ---: | ---: | ---: | ---: |",
@@ -111,7 +138,7 @@ def overhead_section(d, name):
             f"blocks of {d['peer']['block']}, {d['peer']['threads']} threads. batchveh: {d['batchveh']}. "
             f"{d['note']}. {('Code: ' + d['code'] + '. ') if 'code' in d else ''}"
             f"(load average before/after: {d['load_average_before_after']}; "
-            f"raw data: `benchmarks/results/{name}`)."
+            f"raw data: [{name}]({RAW}/{name}))."
         )
         cols = [k[6:].replace("chunk", "chunk ").replace("_threads", ", threads ") for k in keys]
     else:  # the older format: engine.run against one Batch.step per step
@@ -119,7 +146,7 @@ def overhead_section(d, name):
             f"`python benchmarks/cpu_overhead.py` (an earlier version): {d['variants']} variants x {d['steps']} "
             f"steps, {d['cpu_threads']} CPU threads; measured against the older peer (one Batch.step per step, "
             f"{d['variants']} variants, {d['mujoco_threads']} threads), batchveh's engine.run without make_batch "
-            f"or Parquet; columns: batchveh's MuJoCo threads (raw data: `benchmarks/results/{name}`)."
+            f"or Parquet; columns: batchveh's MuJoCo threads (raw data: [{name}]({RAW}/{name}))."
         )
         cols = [f"{k[6:]} threads" for k in keys]
     lines = [
@@ -150,7 +177,7 @@ def ray_section(d, name):
     """The in-process sweep against Ray workers, side by side (benchmarks/ray_gpus.py)."""
     hours = ", ".join(f"{s / 3600:.2f} h on {n}" for n, s in d["ten_million_x_2100_steps_s"].items())
     out = [
-        f"## In-process against Ray: {d['machine']}, backend {d['backend']}",
+        f"### In-process against Ray: {d['machine']}, backend {d['backend']}",
         "",
         f"Command: `{d['command'].split(' --note')[0]}`, {d['date']}. {d['note']}",
         "",
@@ -165,120 +192,199 @@ def ray_section(d, name):
     out += [
         "",
         f"Ray / in-process, best after the compile: **{d['ray_over_local']:.3f}**. 10 million variants x 2,100 "
-        f"steps at the Ray rate per worker: {hours} workers. (raw data: `benchmarks/results/{name}`)",
+        f"steps at the Ray rate per worker: {hours} workers. (raw data: [{name}]({RAW}/{name}))",
     ]
     return "\n".join(out)
 
 
-def main():
+def end_to_end_section(d: dict, name: str) -> str:
+    """One benchmarks/end_to_end.py file: each fresh process's wall time, the sweep's own clock and the caches."""
+    device = ", ".join(d["gpus"]) or d["machine"]
     out = [
-        (HERE / "NOTES.md").read_text().rstrip(),
+        f"### End to end: `{d['command']}` on {device}",
         "",
-        "## Speed and accuracy tables",
+        f"{d['date']}, code {d['code']}, {d['machine']}. {d['note'].rstrip('.')}. First run on fresh caches "
+        f"(no Warp kernel, no JAX program cached): {'yes' if d['first_run_on_fresh_caches'] else 'no'}.",
         "",
-        "Errors: median / p99 over non-slipping variants of |x - ref| / max(|ref|, 1 N m), against MuJoCo C "
-        "in float64 with tolerance 1e-12 and 200 iterations on 256 variants. 'sum' is the four-wheel drive "
-        "sum (fixed by physics); 'wheel' pools the four drive motors (their split is ill-conditioned); "
-        "'peak_lp' is the peak after the 50 ms low-pass filter.",
+        "| run | wall s | the sweep's own s | compile s | outside the sweep s | variant-steps/s (sweep clock) | "
+        "backend (device) | JAX cache entries before | Warp kernel cache entries before | load average |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: | --- |",
+    ]
+    for r in d["runs"]:
+        c = r["caches_before"]
+        load = " / ".join(f"{x:.1f}" for x in r["load_average_before_after"])
+        if "sweep_wall_s" not in r:
+            out.append(f"| {r['kind']} | {r['wall_s']:.1f} | failed (exit {r['returncode']}) | | | | | | | {load} |")
+            continue
+        out.append(
+            f"| {r['kind']} | {r['wall_s']:.1f} | {r['sweep_wall_s']:.1f} | {r['compile_s']:.1f} | "
+            f"{r['outside_sweep_s']:.1f} | {r['variant_steps_per_s']:.3g} | {r['backend']} ({r['device']}) | "
+            f"{c['jax_compile_cache_entries']} | {c['warp_kernel_cache_entries']} | {load} |"
+        )
+    status = d["runs"][-1].get("status", "")
+    out += ["", f"Status of the last run: {status}. (raw data: [{name}]({RAW}/{name}))"]
+    return "\n".join(out)
+
+
+def bench_section(d: dict, name: str) -> list[str]:
+    """A bench.py file: its table, the peer it ran against, and what its own fields do not say."""
+    drop = ARCHIVED_ROWS.get(name) if name in CURRENT else None
+    if drop:
+        d = {**d, "rows": [r for r in d["rows"] if drop not in r["name"]]}
+    table = bench_table(d)
+    if name in CURRENT:  # its heading says what it measured, then on what
+        table = f"### {CURRENT[name]}: " + table.removeprefix("### ")
+    out = [table, ""]
+    if d["info"].get("peer"):
+        out += [peer_note(d["info"]["peer"]), ""]
+        out += [f"Code: {d['info']['code']}.", ""] if "code" in d["info"] else []
+    elif "peer" not in d["info"] and not d["info"].get("command", "").count("--skip-cpu"):
+        cmd = d["info"]["command"].split()
+        n = cmd[cmd.index("--cpu-variants") + 1] if "--cpu-variants" in cmd else "512"
+        out += [
+            f"Ratios measured against the older peer (one Batch.step per step, {n} variants, nothing "
+            "recorded): bench.py before the peer was measured at its best.",
+            "",
+        ]
+    if drop:
+        out += [f"Rows of this file that ran batchveh's {drop} solver are in the archive's notes.", ""]
+    if name in FILE_NOTES:
+        out += [FILE_NOTES[name], ""]
+    return out + [f"(raw data: [{name}]({RAW}/{name}))", ""]
+
+
+def mainjob_section(d: dict, name: str) -> list[str]:
+    out = [
+        "### The main job, end to end (by the earlier mainjob.py)",
+        "",
+        f"`{d['command']}` (10,602 variants x 1000 steps, MuJoCo C) as a fresh process, on {d['machine']}, "
+        f"{d['date']}. {d['note']} (raw data: [{name}]({RAW}/{name}))",
+        "",
+        "| run | wall s | load average before / after | the sweep's summary |",
+        "| ---: | ---: | --- | --- |",
+    ]
+    for i, r in enumerate(d["runs"]):
+        load = " / ".join(f"{x:.1f}" for x in r["load_average_before_after"])
+        out.append(f"| {i + 1} | {r['wall_s']:.1f} | {load} | {' '.join(r['summary'])[:200]} |")
+    return out + [""]
+
+
+def largest_section(d: dict, name: str) -> list[str]:
+    out = [f"### The largest warp batch: {d['info']['device']}", "", f"Command: `{d['info']['command']}`", ""]
+    out += ["| variants | variant-steps/s | peak GB | result |", "| ---: | ---: | ---: | --- |"]
+    for r in d["rows"]:
+        if "error" in r:
+            out.append(f"| {r['variants']:,} | - | - | {r['error'][:80]} |")
+        else:
+            out.append(f"| {r['variants']:,} | {r['rate']:.3g} | {r['peak_mem_gb']:.1f} | ok |")
+    return out + ["", f"(raw data: [{name}]({RAW}/{name}))", ""]
+
+
+def stages_section(files: list[Path]) -> list[str]:
+    out = [
+        "### Where a step's time goes",
+        "",
+        "`python benchmarks/stages.py --n 65536 --solver S`: cumulative prefixes of mjx.step, jit(vmap) over "
+        "65,536 slope variants from a settled state, best of 10; 'delta' is the stage's own cost.",
         "",
     ]
-    for f in sorted((HERE / "results").glob("*.json")):
-        if any(
-            k in f.name
-            for k in ("scaling", "stages", "profile", "overhead", "mainjob", "contact-cost", "largest", "ray-gpus")
-        ):
-            continue
+    for f in files:
         d = json.loads(f.read_text())
-        out += [bench_table(d), ""]
-        if d["info"].get("peer"):
-            out += [peer_note(d["info"]["peer"]), ""]
-            out += [f"Code: {d['info']['code']}.", ""] if "code" in d["info"] else []
-        elif "peer" not in d["info"]:  # files from before the peer at its best
-            cmd = d["info"]["command"].split()
-            n = cmd[cmd.index("--cpu-variants") + 1] if "--cpu-variants" in cmd else "512"
-            out += [
-                f"Ratios measured against the older peer (one Batch.step per step, {n} variants, nothing "
-                "recorded): bench.py before the peer was measured at its best.",
-                "",
-            ]
-        out += [f"(raw data: `benchmarks/results/{f.name}`)", ""]
-    stages = sorted((HERE / "results").glob("*stages*.json"))
-    if stages:
+        total = d["rows"][-1]["ms"]
         out += [
-            "## Where a step's time goes",
+            f"**{d['solver']}**, {d.get('wheel_collision', 'cylinder')} wheels, on {d['device']}: one step "
+            f"{total:.2f} ms ({d['n'] / total * 1e3:.3g} variant-steps/s; raw data: [{f.name}]({RAW}/{f.name}))",
             "",
-            "`python benchmarks/stages.py --n 65536 --solver S`: "
-            "cumulative prefixes of mjx.step, jit(vmap) over 65,536 slope variants from a settled state, "
-            "best of 10; 'delta' is the stage's own cost.",
-            "",
+            "| stage | cumulative ms | delta ms | share |",
+            "| --- | ---: | ---: | ---: |",
         ]
-        for f in stages:
-            d = json.loads(f.read_text())
-            total = d["rows"][-1]["ms"]
-            out += [
-                f"**{d['solver']}**, {d.get('wheel_collision', 'cylinder')} wheels, on {d['device']}: "
-                f"one step {total:.2f} ms "
-                f"({d['n'] / total * 1e3:.3g} variant-steps/s)",
-                "",
-                "| stage | cumulative ms | delta ms | share |",
-                "| --- | ---: | ---: | ---: |",
-            ]
-            out += [
-                f"| {r['stage']} | {r['ms']:.2f} | {r['delta_ms']:.2f} | {100 * r['delta_ms'] / total:.0f}% |"
-                for r in d["rows"]
-            ]
-            out.append("")
-    for f in sorted((HERE / "results").glob("*profile*.json")):
         out += [
-            "## Kernel profile: MJX's solver against the fused one",
-            "",
-            profile_section(json.loads(f.read_text()), f.name),
-            "",
+            f"| {r['stage']} | {r['ms']:.2f} | {r['delta_ms']:.2f} | {100 * r['delta_ms'] / total:.0f}% |"
+            for r in d["rows"]
         ]
-    overhead = sorted((HERE / "results").glob("*overhead*.json"))
-    if overhead:
-        out += ["## batchveh mujoco against raw mujoco.batch, alternated", ""]
-    for f in overhead:
-        out += [overhead_section(json.loads(f.read_text()), f.name), ""]
-    for f in sorted((HERE / "results").glob("*mainjob*.json")):
-        d = json.loads(f.read_text())
-        out += [
-            "## The main job, end to end",
-            "",
-            f"`python benchmarks/mainjob.py`: `{d['command']}` (10,602 variants x 1000 steps, MuJoCo C) as a fresh "
-            f"process, on {d['machine']}, {d['date']}. {d['note']} (raw data: `benchmarks/results/{f.name}`)",
-            "",
-            "| run | wall s | load average before / after | the sweep's summary |",
-            "| ---: | ---: | --- | --- |",
-        ]
-        for i, r in enumerate(d["runs"]):
-            load = " / ".join(f"{x:.1f}" for x in r["load_average_before_after"])
-            out.append(f"| {i + 1} | {r['wall_s']:.1f} | {load} | {' '.join(r['summary'])[:200]} |")
         out.append("")
-    for f in sorted((HERE / "results").glob("*largest*.json")):
+    return out
+
+
+def render_files(files: list[Path]) -> list[str]:
+    """The tables of `files`, each file by its kind (from its name)."""
+    out: list[str] = []
+    kind = {f: next((k for k in KINDS if k in f.name), "bench") for f in files}
+    for f in files:
+        k = kind[f]
+        if k in ("stages", "scaling", "contact-cost"):
+            continue  # grouped below
         d = json.loads(f.read_text())
-        out += [f"## The largest warp batch: {d['info']['device']}", "", f"Command: `{d['info']['command']}`", ""]
-        out += ["| variants | variant-steps/s | peak GB | result |", "| ---: | ---: | ---: | --- |"]
-        for r in d["rows"]:
-            if "error" in r:
-                out.append(f"| {r['variants']:,} | - | - | {r['error'][:80]} |")
-            else:
-                out.append(f"| {r['variants']:,} | {r['rate']:.3g} | {r['peak_mem_gb']:.1f} | ok |")
-        out += ["", f"(raw data: `benchmarks/results/{f.name}`)", ""]
-    for f in sorted((HERE / "results").glob("*ray-gpus*.json")):
-        out += [ray_section(json.loads(f.read_text()), f.name), ""]
-    scaling = sorted((HERE / "results").glob("*scaling*.json"))
+        if k == "end-to-end":
+            out += [end_to_end_section(d, f.name), ""]
+        elif k == "profile":
+            out += ["### Kernel profile: MJX's solver against the fused one", "", profile_section(d, f.name), ""]
+        elif k == "overhead":
+            out += ["### batchveh mujoco against raw mujoco.batch, alternated", "", overhead_section(d, f.name), ""]
+        elif k == "mainjob":
+            out += mainjob_section(d, f.name)
+        elif k == "largest":
+            out += largest_section(d, f.name)
+        elif k == "ray-gpus":
+            out += [ray_section(d, f.name), ""]
+        else:
+            out += bench_section(d, f.name)
+    stages = [f for f in files if kind[f] == "stages"]
+    out += stages_section(stages) if stages else []
+    scaling = [f for f in files if kind[f] == "scaling"]
     if scaling:
         out += [
-            "## Several GPUs of one host",
+            "### Several GPUs of one host",
             "",
-            "`python benchmarks/scaling.py --n N --solver S`, one GPU with CUDA_VISIBLE_DEVICES=0, then both; float32.",
+            "`python benchmarks/scaling.py --n N --solver S`, one GPU with CUDA_VISIBLE_DEVICES=0, then both; "
+            "float32 (raw data: " + ", ".join(f"[{f.name}]({RAW}/{f.name})" for f in scaling) + ").",
             "",
             scaling_table(scaling),
             "",
         ]
-    (HERE / "RESULTS.md").write_text("\n".join(out) + "\n")
-    print(f"wrote {HERE / 'RESULTS.md'}")
+    others = [f for f in files if kind[f] == "contact-cost"]
+    if others:
+        out += ["Not tabulated here: " + ", ".join(f"[{f.name}]({RAW}/{f.name})" for f in others) + ".", ""]
+    return out
+
+
+KINDS = ("end-to-end", "stages", "scaling", "profile", "overhead", "mainjob", "largest", "ray-gpus", "contact-cost")
+ERRORS = (
+    "Errors in the tables: median / p99 over non-slipping variants of |x - ref| / max(|ref|, 1 N m), against "
+    "MuJoCo C in float64 with tolerance 1e-12 (and 200 iterations) on the file's reference variants. 'sum' is the "
+    "four-wheel drive sum (fixed by physics); 'wheel' pools the four drive motors (their split is ill-conditioned); "
+    "'peak_lp' is the peak after the 50 ms low-pass filter."
+)
+
+
+def demote(markdown: str) -> str:
+    """Headings one level down, for a page included under a heading of its own."""
+    return "\n".join("#" + line if line.startswith("#") else line for line in markdown.splitlines())
+
+
+def main():
+    files = sorted((HERE / "results").glob("*.json"))
+    current = [f for f in files if f.name in CURRENT or "end-to-end" in f.name]
+    current.sort(key=lambda f: (f.name not in CURRENT, list(CURRENT).index(f.name) if f.name in CURRENT else f.name))
+    archived = [f for f in files if f not in current]
+    out = [
+        (HERE / "NOTES.md").read_text().rstrip(),
+        "",
+        "## Today's tables",
+        "",
+        ERRORS,
+        "",
+        *render_files(current),
+        "## Archive",
+        "",
+        demote((HERE / "ARCHIVE.md").read_text().rstrip()),
+        "",
+        "### The archive's tables",
+        "",
+        demote("\n".join(render_files(archived))),
+    ]
+    OUT.write_text("\n".join(out).rstrip() + "\n")
+    print(f"wrote {OUT}")
 
 
 if __name__ == "__main__":

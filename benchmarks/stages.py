@@ -4,7 +4,7 @@
 
 Each row times jit(vmap(prefix of mjx.step)) over n variants from a settled state (10
 runs after a warm-up, best kept); the difference to the previous row is that stage's
-cost. This is the profile evidence for benchmarks/NOTES.md (no trace viewer is needed).
+cost. This is the profile evidence for docs/performance.md (no trace viewer is needed).
 """
 
 import argparse

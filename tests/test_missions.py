@@ -520,3 +520,14 @@ def test_mission_on_warp_matches_mujoco_c():
     for col in c:
         if col.startswith(("mission_", "seg")):
             np.testing.assert_allclose(w[col], c[col], atol=WARP_ATOL, err_msg=col)
+
+
+def test_a_mission_without_segments_runs_the_example():
+    """`python -m batchveh.run mission` has a duty cycle to run: the example, 18 s, with its climb."""
+    from batchveh.missions import EXAMPLE_SEGMENTS, mission_of
+
+    sc = make_scenario("mission")
+    assert sc.total_time == pytest.approx(18.0)
+    assert [s["kind"] for s in sc.segments] == [s["kind"] for s in EXAMPLE_SEGMENTS]
+    assert mission_of(sc).spans[3] == "seg2_climb"
+    assert make_scenario("mission").segments is not sc.segments  # each scenario its own list

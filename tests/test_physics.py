@@ -51,10 +51,10 @@ SLIDING_ACCEL_RTOL = 0.04
 # ~2x its mean), so its 2 s window mean scatters: measured +0.67% (20 deg), +0.33% (25 deg); over
 # the settle and drive law above, -0.6% to +1.7% (20 deg) and -4.1% to +4.6% (25 deg)
 # With impedance 0.25: +6.2% at 25 deg, while the chassis' deceleration says 0.985 mu N; the excess
-# over the ground's friction torque is not isolated (README, "Contact model limits")
+# over the ground's friction torque is not isolated (docs/physics.md, "The rigid wheel's contact")
 SLIDING_SUM_RTOL = 0.08
 # turns: yaw rates over the steady part against their closed forms. Soft contacts creep
-# (README: 1 to 2 %), so the vehicle turns slightly slower and wider than the rigid kinematics.
+# (docs/physics.md: 1 to 2 %), so the vehicle turns slightly slower and wider than the rigid kinematics.
 PIVOT_YAW_RTOL = 0.03  # measured -1.98% (-0.27% with MuJoCo's impedance 0.9: the soft contact creeps more)
 ACKERMANN_YAW_RTOL = 0.015  # measured -0.52% (R 3 m, 2 km/h), -0.45% (R -5 m, 4 km/h)
 ACKERMANN_RADIUS_RTOL = 0.015  # path radius of the chassis origin: measured +0.33%, +0.46%
@@ -99,7 +99,7 @@ def test_slope_torque_sum_matches_closed_form(vehicle, slope_deg):
         np.testing.assert_allclose(
             s["drive_sum_mean"], expected, rtol=SUM_RTOL, err_msg=f"four-wheel drive sum at {slope_deg} deg"
         )
-        # the split is statically indeterminate (README), but every wheel pushes up the slope
+        # the split is statically indeterminate (docs/physics.md), but every wheel pushes up the slope
         assert np.all(per_wheel > 0), per_wheel
     # a straight line on a symmetric vehicle: the left and right wheels of an axle carry the same torque
     np.testing.assert_allclose(per_wheel[[0, 2]], per_wheel[[1, 3]], rtol=0, atol=MIRROR_ATOL)

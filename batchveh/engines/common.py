@@ -25,14 +25,21 @@ def has_gpu() -> bool:
         return False
 
 
+def warp_installed() -> bool:
+    """Whether MJX can use its Warp implementation (warp-lang importable)."""
+    try:
+        import warp  # noqa: F401
+    except (ImportError, RuntimeError):
+        return False
+    return True
+
+
 def resolve_backend(name: str) -> str:
     """'auto' is warp when JAX sees a CUDA GPU and warp-lang is installed, mjx on another JAX
     accelerator (or without warp-lang), otherwise mujoco (MuJoCo C on the CPU threads)."""
     if name == "auto":
         if not has_gpu():
             return "mujoco"
-        from batchveh.engines.warp import warp_installed
-
         gpu = any(d.platform == "gpu" for d in jax.devices())
         return "warp" if gpu and warp_installed() else "mjx"
     return name

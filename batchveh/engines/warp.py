@@ -25,6 +25,7 @@ import numpy as np
 
 from batchveh.batch import VariantBatch, import_mjx
 from batchveh.config import ConfigError
+from batchveh.engines.common import warp_installed
 from batchveh.engines.mjx import MjxEngine
 from batchveh.rollout import mjx_stats
 from batchveh.vehicle import layout
@@ -32,15 +33,6 @@ from batchveh.vehicle import layout
 # contacts a world may hold: 2 per cylinder wheel (MuJoCo Warp), 1 per sphere wheel, and room for a
 # chassis and hubs that touch the ground on a flipped vehicle
 CONTACTS_PER_WORLD = 24
-
-
-def warp_installed() -> bool:
-    """Whether MJX can use its Warp implementation (warp-lang importable)."""
-    try:
-        import warp  # noqa: F401
-    except (ImportError, RuntimeError):
-        return False
-    return True
 
 
 def constraint_rows(m: mujoco.MjModel, contacts: int) -> int:
