@@ -28,6 +28,7 @@ from __future__ import annotations
 import logging
 import os
 import socket
+import time
 from collections import Counter, deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
@@ -40,6 +41,7 @@ if TYPE_CHECKING:
 
 MAX_ATTEMPTS = 3  # runs of one chunk before it is reported failed
 MAX_RESTARTS = 3  # restarts of one worker after its process died
+PROBE_WAIT = 0.1  # s between readiness probes of a worker that Ray is restarting
 
 
 class ChunkWorker:
@@ -203,7 +205,8 @@ class RayExecutor:
         from ray.exceptions import ActorDiedError, RayActorError, RayError, RayTaskError
 
         queue, idle = deque(todo), deque(self.actors)
-        running: dict[Any, tuple[Any, int]] = {}
+        # object ref -> (worker, chunk); chunk None: a readiness probe of a worker Ray is restarting
+        running: dict[Any, tuple[Any, int | None]] = {}
         attempts: Counter[int] = Counter()
         failed: dict[int, str] = {}
         while queue or running:
@@ -215,6 +218,16 @@ class RayExecutor:
                 break
             [ref], _ = ray.wait(list(running), num_returns=1)
             a, c = running.pop(ref)
+            if c is None:  # a restarting worker's probe: it takes chunks once it answers
+                try:
+                    ray.get(ref)
+                    idle.append(a)
+                except ActorDiedError:
+                    pass  # gone for good
+                except RayActorError:
+                    time.sleep(PROBE_WAIT)
+                    running[a.__ray_ready__.remote()] = (a, None)
+                continue
             try:
                 finished(c, *ray.get(ref))
                 idle.append(a)
@@ -225,8 +238,9 @@ class RayExecutor:
                 idle.append(a)
             except RayActorError as err:  # the worker's process died, or its node
                 why = "its Ray worker died"
-                if not isinstance(err, ActorDiedError):  # restarting: it takes chunks again once up
-                    idle.append(a)
+                if not isinstance(err, ActorDiedError):  # restarting: it takes chunks again once up;
+                    # a chunk sent before then would fail at once and spend an attempt of its own
+                    running[a.__ray_ready__.remote()] = (a, None)
             except RayError as err:  # Ray lost the result (an object store or a node failed)
                 why = f"{type(err).__name__} in Ray"
                 idle.append(a)

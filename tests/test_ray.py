@@ -42,9 +42,6 @@ def _spec(tmp_path, name="r", **over):
         "sweep": {"method": "grid", "params": {"slope_deg": [0, 5, 10, 15], "friction": [0.3, 0.9]}},
         "backend": "mujoco",
         "output": str(tmp_path / name),
-        # the rigid contact: with the slip tyre's per-step C engine one run lost a chunk after the
-        # worker kill (56 of 64 rows, none failed; stop 25, under load): to be found
-        "vehicle": {"tyre": {"model": "rigid"}},
     }
     raw.update(over)
     path = tmp_path / f"{name}.yaml"
