@@ -193,12 +193,11 @@ class MujocoTyre:
         self.lay, self.dt, self.nbody = lay, float(m.opt.timestep), m.nbody
         self.tp = tyres.params({k: np.asarray(v, np.float64) for k, v in params.items()}, np)
         self.state = tyres.init_state(np.shape(params["friction"]), np)
-        self.info: dict[str, np.ndarray] = {}
 
     def wrench(self, xpos, xmat, qvel, cfrc_ext, xfrc_applied) -> np.ndarray:
         kin = tyres.kinematics(xpos, xmat, qvel, self.lay, np)
         fc = tyres.contact_force(cfrc_ext, xfrc_applied, self.lay)
-        self.state, w, self.info = tyres.step(self.state, kin, fc, self.tp, self.dt, np)
+        self.state, w, _ = tyres.step(self.state, kin, fc, self.tp, self.dt, np)
         return tyres.wheel_wrench_xfrc(w, self.nbody, self.lay, np)
 
 

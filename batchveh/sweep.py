@@ -165,12 +165,12 @@ def run_sweep(
     try:
         manifest, device = executor.start(spec, backend or spec.backend, n, chunk_size, folder)
         backend, chunk = manifest["backend"], manifest["chunk_size"]
-        if backend == "mjx" and spec.precision == "f32" and spec.vehicle.contact_model.cone == "elliptic":
+        rigid_elliptic = spec.vehicle.tyre.model == "rigid" and spec.vehicle.contact_model.cone == "elliptic"
+        if backend == "mjx" and spec.precision == "f32" and rigid_elliptic:
             note(
-                "MJX in float32 with the elliptic friction cone: four-wheel sums hold (1e-4), per-wheel "
-                "torques drift by 6% (median) on a GPU; for per-wheel values give precision: f64, or the fast "
-                "contact preset vehicle.contact_model {cone: pyramidal, impratio: 1, impedance: 0.9} "
-                "(docs/user-guide.md, Backends)"
+                "MJX in float32 with the rigid contact's elliptic friction cone: four-wheel sums hold (1e-4), "
+                "per-wheel torques drift by 6% (median) on a GPU; for per-wheel values use the slip tyre "
+                "(vehicle.tyre.model: slip, the default), or give precision: f64 (docs/user-guide.md, Backends)"
             )
         if spec.scenario.obstacle == "terrain":
             note(
