@@ -36,9 +36,10 @@ EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_PARTIAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 1
 # Rough rates in variant-steps/s for the dry run's estimate, with an elliptic contact (docs/performance.md):
 # MuJoCo C 7.8e4 on 2 threads (the main job on a fresh clone); MJX on the CPU 1.0e4 on 2 cores; the warp
 # engine 4.5e3 on 2 CPU cores (256 variants); on one H200, MJX (JAX implementation) 1.4e6 and the warp
-# engine 6.74e6 with the default contact (benchmarks/results/h200-warp-soft.json)
+# engine 6.74e6 with the rigid contact (benchmarks/results/h200-warp-soft.json); with the slip tyre
+# (the default) MJX 2.87e6 (8,192 variants) and the warp engine 1.73e7 (benchmarks/results/h200-tyres*.json)
 RATE_PER_CPU = {"mujoco": 3.9e4, "mjx": 5.0e3, "warp": 2.2e3}  # per MuJoCo thread or CPU core
-RATE_PER_GPU = {"mjx": 1.4e6, "warp": 6.7e6}
+RATE_PER_GPU = {"rigid": {"mjx": 1.4e6, "warp": 6.7e6}, "slip": {"mjx": 2.9e6, "warp": 1.7e7}}
 COMPILE_S = {"mujoco": 2.0, "mjx-cpu": 60.0, "mjx-gpu": 15.0, "warp-cpu": 40.0, "warp-gpu": 60.0}
 
 
@@ -240,8 +241,9 @@ def run_sweep(
     }
 
 
-def estimate(backend: str, variant_steps: int) -> tuple[float, str]:
-    """(seconds, on what) for `variant_steps` on the backend and the devices this process sees."""
+def estimate(backend: str, variant_steps: int, tyre: str = "slip") -> tuple[float, str]:
+    """(seconds, on what) for `variant_steps` on the backend and the devices this process sees, with
+    the wheel-ground model `tyre` ('slip' or 'rigid')."""
     from batchveh.engines import has_gpu
 
     if backend == "mujoco":
@@ -253,7 +255,7 @@ def estimate(backend: str, variant_steps: int) -> tuple[float, str]:
         import jax
 
         gpus = 1 if backend == "warp" else len(jax.devices())
-        rate, where, compile_s = RATE_PER_GPU[backend] * gpus, f"{gpus} GPU", COMPILE_S[f"{backend}-gpu"]
+        rate, where, compile_s = RATE_PER_GPU[tyre][backend] * gpus, f"{gpus} GPU", COMPILE_S[f"{backend}-gpu"]
     else:
         cores = os.cpu_count() or 1
         rate, where, compile_s = RATE_PER_CPU[backend] * cores, f"{cores} CPU cores", COMPILE_S[f"{backend}-cpu"]
@@ -268,7 +270,7 @@ def dry_run(spec: SweepSpec, limit: int | None, backend: str, max_variants: int 
     n = count_variants(spec, limit, max_variants)
     backend = resolve_backend(backend)
     steps = spec.scenario.n_steps
-    seconds, basis = estimate(backend, n * steps)
+    seconds, basis = estimate(backend, n * steps, spec.vehicle.tyre.model)
     # about 0.2 MB per variant of a MuJoCo C chunk (records of a 100-step block, statistics)
     mem_mb = min(n, CPU_CHUNK["mujoco"]) * 0.2 + 200 if backend == "mujoco" else min(n, 131072) * 0.02 + 500
     return (

@@ -1,6 +1,6 @@
 """The four-wheeled vehicle of the seed: definition, YAML loading and MuJoCo model.
 
-Frame and conventions (the seed's, see README "Conventions"):
+Frame and conventions (the seed's, see docs/physics.md, "Conventions"):
 - Z up, X forward, Y left. Lengths in m, masses in kg.
 - The vehicle is a chassis box on a free joint, four hubs on vertical steering
   hinges at the chassis corners (+-length/2, +-width/2), and four wheel cylinders
@@ -98,7 +98,7 @@ class Motors:
     at mu 0.9 (tests/test_physics.py) and stay stable with implicitfast at dt = 5 ms.
     The armature (e.g. a 2e-4 kg m^2 rotor behind a 32:1 gearbox) damps the
     stick-slip cycle of four wheels locked to one speed; with 0.05 the wheels
-    chattered near the friction limit (README, "Servo choice").
+    chattered near the friction limit (docs/physics.md, "Servo choice").
     """
 
     drive_kp: float = field(5000.0, unit="N m/rad", ge=0)
@@ -110,7 +110,9 @@ class Motors:
 
 @dataclass(frozen=True)
 class ContactModel:
-    """How MuJoCo's soft friction approaches Coulomb friction (validation/DRAG.md, SCRUB.md).
+    """The rigid wheel-ground model's contact (`tyre: {model: rigid}`): how MuJoCo's soft friction
+    approaches Coulomb friction (validation/DRAG.md, SCRUB.md). The slip tyre uses only its
+    impedance and time constant, for the frictionless normal contact.
 
     MuJoCo's friction is a soft constraint: below a saturation slip speed it acts as a
     viscous damper. With its defaults (pyramidal cone, impratio 1) a seed wheel sliding at
@@ -204,9 +206,9 @@ def rolling_resistance_torque(c_rr, radius, total_mass, g_normal):
     """Rolling-resistance torque on each wheel, N m: C_rr r times the wheel's static share of the
     weight normal to the ground, m g cos(slope) / 4 (`g_normal` = g cos(slope), m/s^2).
 
-    It acts as the drive joint's friction loss: a torque of at most this size against the
+    On the rigid contact it acts as the drive joint's friction loss: a torque of at most this size against the
     wheel's rotation, so a wheel rolling at any speed feels it in full. The four-wheel sum is
-    exact on steady ground; the split ignores load transfer (README, "What the model leaves
+    exact on steady ground; the split ignores load transfer (docs/physics.md, "What the model leaves
     out"). Works on floats and arrays alike."""
     return c_rr * radius * total_mass * g_normal / 4
 

@@ -16,7 +16,9 @@ RAW = "../benchmarks/results"  # the result files, as seen from docs/
 
 # today's results: what each file measured. A file missing here is archived.
 CURRENT = {
-    "h200-warp-soft.json": "The warp engine, default contact",
+    "h200-tyres.json": "The warp engine, slip tyre and rigid contact side by side",
+    "h200-tyres-mjx.json": "MJX's JAX implementation on a GPU, slip tyre and rigid contact",
+    "h200-warp-soft.json": "The warp engine, rigid contact (elliptic, impratio 100, impedance 0.25)",
     "h200-warp-impedance09.json": "The warp engine, contact impedance 0.9",
     "h200-warp-pyramidal1.json": "The warp engine, the fast contact preset",
     "h200-warp-courses-warm.json": "Obstacles on the warp engine, warmed up",
@@ -211,8 +213,8 @@ def end_to_end_section(d: dict, name: str) -> str:
         "| --- | ---: | ---: | ---: | ---: | ---: | --- | ---: | ---: | --- |",
     ]
     for r in d["runs"]:
-        c = r["caches_before"]
-        load = " / ".join(f"{x:.1f}" for x in r["load_average_before_after"])
+        c = r["caches_before"] or {"jax_compile_cache_entries": "-", "warp_kernel_cache_entries": "-"}  # not recorded
+        load = " / ".join(f"{x:.1f}" for x in r["load_average_before_after"] or ()) or "-"
         if "sweep_wall_s" not in r:
             out.append(f"| {r['kind']} | {r['wall_s']:.1f} | failed (exit {r['returncode']}) | | | | | | | {load} |")
             continue
