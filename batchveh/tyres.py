@@ -108,13 +108,15 @@ def params(p: Mapping[str, Any], xp=np) -> dict[str, Any]:
     def col(x):
         return xp.asarray(x)[..., None]
 
+    half_patch, half_width = col(p["tyre.patch_length"]) / 2, col(p["wheel.width"]) / 2
     return {
         "mu": col(p["friction"]),
         "radius": col(p["wheel.radius"]),
-        "half_width": col(p["wheel.width"]) / 2,
+        # the patch's polar radius of gyration squared, and its mean distance from the centre
+        "polar": (half_patch**2 + half_width**2) / 3.0,
+        "rho": mean_patch_radius(half_patch, half_width, xp),
         "c_s": col(p["tyre.slip_stiffness"]),
         "length": col(p["tyre.relaxation_length"]),
-        "half_patch": col(p["tyre.patch_length"]) / 2,
         "c_rr": col(p["wheel.rolling_resistance"]),
         # the lightest mass the tyre force meets at the rim: the wheel's spin inertia with the
         # motor's reflected rotor inertia, over r^2 (a towing wheel has no servo to hold it)
@@ -168,7 +170,7 @@ def step(state, kin: Mapping[str, Any], f_contact, tp: Mapping[str, Any], dt, xp
     state (..., 4, NSTATE); kin from `kinematics`; f_contact (..., 4, 3) from `contact_force`;
     tp from `params`. Returns (new state, wrench (..., 4, 6): world force and torque at the wheel
     centre, as MuJoCo's xfrc_applied takes them, and a dict of diagnostics: normal force N,
-    longitudinal and lateral force, slip (practical), spin moment)."""
+    longitudinal and lateral force, spin moment)."""
     n_force = xp.sqrt(_dot(f_contact, f_contact))
     touching = n_force > N_MIN
     n_hat = _unit(f_contact, xp)
@@ -207,8 +209,7 @@ def step(state, kin: Mapping[str, Any], f_contact, tp: Mapping[str, Any], dt, xp
     f_mag = xp.minimum(f_mag, mu_n)
 
     # spin: a torsional bristle with what friction the translation leaves
-    polar = (tp["half_patch"] ** 2 + tp["half_width"] ** 2) / 3.0  # polar radius of gyration^2 of the patch
-    rho = mean_patch_radius(tp["half_patch"], tp["half_width"], xp)
+    polar, rho = tp["polar"], tp["rho"]
     left = xp.sqrt(xp.maximum(1.0 - (f_mag / xp.maximum(mu_n, 1e-12)) ** 2, 0.0))
     m_max = mu_n * rho * left
     phi = (phi_old - dt * spin_n) / relax
@@ -229,8 +230,7 @@ def step(state, kin: Mapping[str, Any], f_contact, tp: Mapping[str, Any], dt, xp
     wrench = xp.where(on, wrench, 0.0)
     new = xp.concatenate([u, phi[..., None], q[..., None]], axis=-1)
     new = xp.where(on, new, 0.0)
-    slip = -slip_v / xp.maximum(speed, 1e-9)[..., None]
-    info = {"normal": n_force, "fx": f[..., 0], "fy": f[..., 1], "slip": slip, "spin_moment": m_spin}
+    info = {"normal": n_force, "fx": f[..., 0], "fy": f[..., 1], "spin_moment": m_spin}
     return new, wrench, info
 
 

@@ -257,3 +257,14 @@ def test_rigid_model_is_kept():
     assert not layout(rigid).slip_tyre and layout(slip).slip_tyre
     assert rigid.geom_condim[layout(rigid).ground_geom] == 3
     assert slip.geom_condim[layout(slip).ground_geom] == 1
+
+
+@pytest.mark.parametrize("half_length,half_width", [(0.01, 0.045), (0.045, 0.045), (0.1, 0.02), (1e-6, 0.045)])
+def test_mean_patch_radius_is_the_rectangles_mean_distance(half_length, half_width):
+    """The spin moment's lever: the mean distance of a uniform 2a x 2w rectangle from its centre, against
+    scipy's quadrature of sqrt(x^2 + y^2) over it (w / 2 for a line, a -> 0)."""
+    from scipy.integrate import dblquad
+
+    a, w = half_length, half_width
+    integral, _ = dblquad(lambda y, x: np.hypot(x, y), 0, a, 0, w, epsabs=1e-14, epsrel=1e-10)
+    assert tyres.mean_patch_radius(a, w) == pytest.approx(integral / (a * w), rel=1e-6)
