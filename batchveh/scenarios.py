@@ -120,7 +120,7 @@ class Scenario:
 
     def gravity_vector(self) -> np.ndarray:
         """(3,) gravity in m/s^2 tilted by the slope: (-g sin s, 0, -g cos s)."""
-        return np.asarray(gravity_vector(self.gravity, self.slope_deg))
+        return gravity_vector(self.gravity, self.slope_deg, xp=np)  # numpy: no eager JAX op (2 s on a GPU)
 
 
 def gravity_vector(g, slope_deg, xp=jnp):

@@ -98,7 +98,8 @@ def main():
     }
     print(f"{'model':6} {'best wall s':>12} {'median wall s':>14} {'best sweep s':>13}  status")
     for model, s in summary.items():
-        print(f"{model:6} {s['wall_best_s']:12.1f} {s['wall_median_s']:14.1f} {s['sweep_best_s'] or 0:13.1f}  {s['status']}")
+        best = f"{s['wall_best_s']:12.1f} {s['wall_median_s']:14.1f} {s['sweep_best_s'] or 0:13.1f}"
+        print(f"{model:6} {best}  {s['status']}")
     for k, v in ratios.items():
         print(f"{k}: {v:.3f}")
     out.parent.mkdir(parents=True, exist_ok=True)
