@@ -23,7 +23,7 @@ from batchveh.batch import apply_solver, make_batch
 from batchveh.config import ConfigError
 from batchveh.params import parameter_specs
 from batchveh.results import part_table
-from batchveh.spec import SweepSpec
+from batchveh.spec import SweepSpec, sampler_version
 
 TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match it
 
@@ -82,6 +82,9 @@ class ChunkRunner:
             "settle_time": spec.scenario.settle_time,  # the default may change: a resume must match it
             **engine_meta,
         }
+        sampler = sampler_version(spec.method)
+        if sampler is not None:  # a Sobol' sample is drawn by SALib and scipy: a resume must draw the same
+            self.manifest["sampler"] = sampler
         self.device = device(self.backend, getattr(self.engine, "nthread", None))
         self.meta = {
             "spec": spec.raw,

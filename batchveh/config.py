@@ -7,6 +7,7 @@ key, the bad value and what is allowed; the CLIs print that line and exit 2.
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import math
 import re
@@ -28,6 +29,13 @@ def did_you_mean(name: Any, choices: Any) -> str:
 
     close = difflib.get_close_matches(str(name), [str(c) for c in choices], n=1)
     return f" (did you mean {close[0]!r}?)" if close else ""
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse for the CLIs: a bad argument is one line on stderr and exit 2, like every other input error."""
+
+    def error(self, message: str):
+        self.exit(2, f"error: {message} (see --help)\n")
 
 
 class Loader(yaml.SafeLoader):

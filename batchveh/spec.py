@@ -6,15 +6,18 @@ scenario: straight_line          # a registered name, or a mapping like a scenar
 vehicle: null                    # null (the seed's), a YAML path, or an inline mapping
 fixed: {total_time: 6.0}         # parameter values for every variant
 sweep:
-  method: grid                   # grid | random | lhs | zip
+  method: grid                   # grid | random | lhs | sobol | zip
   params:
     slope_deg: {start: 0, stop: 30, num: 31}   # or a list of values
     friction: [0.3, 0.5, 0.7, 0.9]
 output: results/slope
 solver: {type: newton, iterations: 8, ls_iterations: 16}   # optional; MuJoCo's defaults otherwise
 ```
-For `random` and `lhs`, `n` and `seed` are required, and each parameter is
-`{low, high}` with optional `log: true` (log-uniform).
+For `random`, `lhs` and `sobol`, `n` is required (`seed` defaults to 0), and each parameter
+is `{low, high}` with optional `log: true` (log-uniform). `sobol` is Saltelli's scheme on a
+scrambled Sobol' sequence (SALib), for variance-based sensitivity (`batchveh.sensitivity`):
+`n` is the base size N, a power of two, and the sweep has N (2D + 2) variants for D >= 2
+parameters, in blocks of 2D + 2 rows per base point (`saltelli_block`).
 
 The typed parts (`SpecFile`, `Sampling`, `SolverOptions`) are validated by
 `config.from_mapping`, so every error is one line naming the file, key, value and
@@ -48,6 +51,7 @@ SCENARIO_SETTINGS = tuple(
 )
 MAX_VARIANTS = 10_000_000  # a sweep above this is refused unless the limit is raised (--max-variants)
 RNG_BLOCK = 65536  # random and lhs rows are drawn in blocks of this many, so values do not depend on chunking
+SAMPLED = ("random", "lhs", "sobol")  # methods whose parameters are ranges {low, high, log}, with a size n
 
 
 @dataclass(frozen=True)
@@ -64,7 +68,7 @@ class SolverOptions:
 class Sampling:
     """The `sweep:` part: how the variants are drawn; `params` is checked per method."""
 
-    method: Literal["grid", "random", "lhs", "zip"] = "grid"
+    method: Literal["grid", "random", "lhs", "sobol", "zip"] = "grid"
     params: dict | None = None
     n: int | None = field(None, ge=1)
     seed: int = field(0, ge=0)
@@ -103,8 +107,8 @@ class SweepSpec:
     vehicle: Vehicle
     fixed: dict[str, float]
     method: str
-    params: dict[str, Any]  # grid/zip: name -> values; random/lhs: name -> (low, high, log)
-    n: int | None
+    params: dict[str, Any]  # grid/zip: name -> values; random/lhs/sobol: name -> (low, high, log)
+    n: int | None  # random/lhs: the variants; sobol: the base size N
     seed: int
     output: Path | str  # a local folder, or a URI pyarrow.fs understands
     window: tuple[float, float] | None
@@ -134,7 +138,8 @@ class VariantTable:
 
     Grid rows are unravelled from their index; random and LHS rows are drawn from RNGs
     seeded by (seed, block), so any chunk is built alone and equals the same rows of the
-    whole table."""
+    whole table. Sobol' rows are SALib's Saltelli sample, drawn whole once per table (n x D
+    floats, as the LHS strata are) and sliced."""
 
     def __init__(self, spec: SweepSpec):
         self.spec = spec
@@ -144,9 +149,12 @@ class VariantTable:
             self.n = math.prod(self.sizes)
         elif spec.method == "zip":
             self.n = len(next(iter(spec.params.values())))
+        elif spec.method == "sobol":
+            self.n = int(spec.n) * saltelli_block(len(self.names))
         else:
             self.n = int(spec.n)
         self._perm: np.ndarray | None = None
+        self._sobol: np.ndarray | None = None
 
     def __len__(self) -> int:
         return self.n
@@ -172,7 +180,12 @@ class VariantTable:
         elif spec.method == "zip":
             data = {k: np.asarray(spec.params[k], float)[start:stop] for k in self.names}
         else:
-            u = self._uniform(start, stop)
+            if spec.method == "sobol":
+                if self._sobol is None:
+                    self._sobol = saltelli_sample(len(self.names), int(spec.n), spec.seed)
+                u = self._sobol[start:stop]
+            else:
+                u = self._uniform(start, stop)
             if spec.method == "lhs":  # one sample in each of n strata per dimension, strata shuffled
                 if self._perm is None:
                     rng = np.random.default_rng([spec.seed, 2**32 - 1])
@@ -185,6 +198,31 @@ class VariantTable:
         frame = pd.DataFrame(data, columns=self.names)
         frame.insert(0, "variant", idx)
         return frame
+
+
+def saltelli_block(d: int) -> int:
+    """Rows per base point of a `sobol` sweep of d parameters: A, the D rows A with column j from B,
+    the D rows B with column j from A, then B (the layout SALib's estimators read)."""
+    return 2 * d + 2
+
+
+def saltelli_sample(d: int, n: int, seed: int) -> np.ndarray:
+    """(n (2d + 2), d) points of the unit cube: SALib's Saltelli sample on a scrambled Sobol' sequence
+    of base size n, seeded (the sweep scales them to each parameter's range, as for lhs)."""
+    from SALib.sample import sobol  # SALib and scipy.stats take a second to import: only sobol sweeps pay it
+
+    problem = {"num_vars": d, "names": [f"x{j}" for j in range(d)], "bounds": [[0.0, 1.0]] * d}
+    return sobol.sample(problem, n, calc_second_order=True, scramble=True, seed=seed)
+
+
+def sampler_version(method: str) -> str | None:
+    """What draws a `sobol` sweep's rows (SALib's and scipy's versions: scipy's Sobol' sequence might
+    scramble otherwise in another release), for the manifest a resume must match; None otherwise."""
+    if method != "sobol":
+        return None
+    from importlib.metadata import version
+
+    return f"SALib {version('SALib')}, scipy {version('scipy')}"
 
 
 def variant_table(spec: SweepSpec) -> pd.DataFrame:
@@ -219,6 +257,23 @@ def _bounds(v: Any, method: str, where: str, meta: dict) -> tuple[float, float, 
     if hi < lo or (log and lo <= 0):
         raise ConfigError(f"{where}: {v!r} is not allowed; allowed: low <= high (and low > 0 with log)")
     return lo, hi, log
+
+
+def _check_sobol(sw: Sampling, where: str) -> None:
+    """A Saltelli sample needs two parameters or more and a base size that is a power of two (the
+    Sobol' sequence is balanced only at powers of two: refused, not rounded, so n is what was asked)."""
+    if len(sw.params) < 2:
+        raise ConfigError(
+            f"{where}: sweep.params: one parameter ({', '.join(map(str, sw.params))}) is not allowed for sobol; "
+            "allowed: two or more (with one, S1 = ST = 1 says nothing: sweep it with grid or lhs)"
+        )
+    n = int(sw.n)
+    if n & (n - 1):
+        low, high = 1 << (n.bit_length() - 1), 1 << n.bit_length()
+        raise ConfigError(
+            f"{where}: sweep.n: {n} is not allowed for sobol; allowed: a power of two (the base size N of the "
+            f"Sobol' sequence, which is balanced only there), e.g. {low} or {high}"
+        )
 
 
 def _scenario(sc: Any, where: str) -> Scenario:
@@ -287,9 +342,12 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
                 f"{at}: {k} fixes the compiled program (array shapes, step count) and cannot be swept; "
                 "allowed: one value under fixed (run one sweep per value)"
             )
-        params[k] = _bounds(v, sw.method, at, meta) if sw.method in ("random", "lhs") else _values(v, at, meta)
-    if sw.method in ("random", "lhs") and sw.n is None:
-        raise ConfigError(f"{where}: sweep.n: missing; allowed: an integer >= 1 for {sw.method}")
+        params[k] = _bounds(v, sw.method, at, meta) if sw.method in SAMPLED else _values(v, at, meta)
+    if sw.method in SAMPLED and sw.n is None:
+        allowed = "a power of two >= 1, the base size N" if sw.method == "sobol" else "an integer >= 1"
+        raise ConfigError(f"{where}: sweep.n: missing; allowed: {allowed} for {sw.method}")
+    if sw.method == "sobol":
+        _check_sobol(sw, where)
     if sw.method == "zip" and len({len(v) for v in params.values()}) > 1:
         raise ConfigError(
             f"{where}: sweep.params: zip needs lists of one length; got { {k: len(v) for k, v in params.items()} }"
@@ -301,7 +359,7 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
     given = scenario  # before the fixed values: a mission's unread fields are named where they were set
     vehicle, scenario = variant_setup(vehicle, scenario, fixed)
     vehicle.validate(f"{where}: vehicle")
-    course.check_sweep(base_params(vehicle, scenario), params, scenario.obstacle, sw.method in ("random", "lhs"), where)
+    course.check_sweep(base_params(vehicle, scenario), params, scenario.obstacle, sw.method in SAMPLED, where)
     if scenario.kind == "mission":
         missions.check_sweep(given, params, fixed, where)
     check_run(scenario, top.window, where)

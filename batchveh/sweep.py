@@ -25,9 +25,9 @@ from typing import TYPE_CHECKING, Any
 import pandas as pd
 
 from batchveh.chunks import ChunkRunner
-from batchveh.config import ConfigError
+from batchveh.config import ConfigError, OneLineParser
 from batchveh.results import PART, Locked, ResultError, ResultFolder, load
-from batchveh.spec import MAX_VARIANTS, SweepSpec, load_spec
+from batchveh.spec import MAX_VARIANTS, SweepSpec, load_spec, saltelli_block
 
 if TYPE_CHECKING:
     from batchveh.cluster import RayExecutor
@@ -274,8 +274,12 @@ def dry_run(spec: SweepSpec, limit: int | None, backend: str, max_variants: int 
     seconds, basis = estimate(backend, n * steps, spec.vehicle.tyre.model)
     # about 0.2 MB per variant of a MuJoCo C chunk (records of a 100-step block, statistics)
     mem_mb = min(n, CPU_CHUNK["mujoco"]) * 0.2 + 200 if backend == "mujoco" else min(n, 131072) * 0.02 + 500
+    design = ""
+    if spec.method == "sobol":
+        d = len(spec.params)
+        design = f" (Saltelli: N = {spec.n:,} base points x (2D + 2) = {saltelli_block(d)} for D = {d})"
     return (
-        f"{spec.name}: {n:,} variants x {steps:,} steps; about {_duration(seconds)} ({basis}) "
+        f"{spec.name}: {n:,} variants{design} x {steps:,} steps; about {_duration(seconds)} ({basis}) "
         f"and {mem_mb:,.0f} MB; results would go to {spec.output}"
     )
 
@@ -302,13 +306,8 @@ def _positive(flag: str) -> Callable[[str], int]:
     return parse
 
 
-class _Parser(argparse.ArgumentParser):
-    def error(self, message: str):  # one line and exit 2, like every other input error
-        self.exit(EXIT_INPUT, f"error: {message} (see --help)\n")
-
-
 def main(argv: list[str] | None = None) -> int:
-    parser = _Parser(
+    parser = OneLineParser(
         prog="python -m batchveh.sweep",
         description=__doc__.split("\n\n")[0],
         epilog="Exit codes: 0 done, 2 bad spec, argument or file, 3 results exist or another sweep writes "

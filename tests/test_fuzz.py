@@ -94,17 +94,17 @@ def vehicle_mapping(draw):
 def spec_mapping(draw):
     names = list(parameter_specs())
     base = base_params(batchveh.Vehicle(), batchveh.Scenario())
-    method = draw(mostly(st.sampled_from(["grid", "zip", "random", "lhs"]), st.just("sobol")))
+    method = draw(mostly(st.sampled_from(["grid", "zip", "random", "lhs", "sobol"]), st.just("halton")))
     swept = draw(st.lists(mostly(st.sampled_from(names), st.just("slope")), min_size=1, max_size=3, unique=True))
     params = {}
     for k in swept:
         near = near_default(base.get(k, 1.0))
-        if method in ("random", "lhs"):
+        if method in ("random", "lhs", "sobol"):
             params[k] = draw(mostly(st.fixed_dictionaries({"low": near, "high": near}), value))
         else:
             params[k] = draw(mostly(st.lists(near, min_size=1, max_size=3), value))
     sweep = {"method": method, "params": params}
-    if method in ("random", "lhs") or draw(st.booleans()):
+    if method in ("random", "lhs", "sobol") or draw(st.booleans()):
         sweep["n"] = draw(st.integers(1, 3)) if draw(st.integers(0, 9)) < 9 else draw(value)
     raw = {"name": "fz" if draw(st.integers(0, 9)) < 9 else draw(junk), "sweep": sweep}
     if draw(st.booleans()):

@@ -191,7 +191,7 @@ def test_resume_after_kill_equals_uninterrupted(tmp_path):
             {"sweep": {"method": "grid", "params": {"slope_dge": [1]}}},
             ["sweep.params.slope_dge", "unknown parameter", "did you mean 'slope_deg'?"],
         ),
-        ({"sweep": {"method": "sobol", "params": {"slope_deg": [1]}}}, ["sweep.method", "'sobol'", "grid, random"]),
+        ({"sweep": {"method": "halton", "params": {"slope_deg": [1]}}}, ["sweep.method", "'halton'", "grid, random"]),
         ({"fixed": {"friction": -1}}, ["fixed.friction", "-1", "> 0"]),
         ({"sweep": {"method": "grid", "params": {"friction": "high"}}}, ["sweep.params.friction", "'high'"]),
         ({"outptu": "x"}, ["outptu", "did you mean 'output'?", "allowed keys"]),
