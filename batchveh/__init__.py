@@ -3,7 +3,8 @@
 Public API: the vehicle and scenario definitions, single runs, sweeps and results.
 `simulate` and `run_sweep` live in the CLI modules `batchveh.run` and
 `batchveh.sweep`; they are imported on first use, so `python -m batchveh.run`
-and `python -m batchveh.sweep` start cleanly.
+and `python -m batchveh.sweep` start cleanly. `batchveh.sensitivity(result, ...)`
+is the module `batchveh.sensitivity` (its CLI), which calls its function of that name.
 """
 
 __version__ = "0.1.0"
@@ -63,6 +64,7 @@ __all__ = [
     "make_scenario",
     "metadata",
     "run_sweep",
+    "sensitivity",
     "simulate",
     "spec_from_mapping",
     "units",
@@ -75,4 +77,8 @@ def __getattr__(name):
         import importlib
 
         return getattr(importlib.import_module(_LAZY[name]), name)
+    if name == "sensitivity":  # the module, which is callable: importing it binds it here anyway
+        import importlib
+
+        return importlib.import_module("batchveh.sensitivity")
     raise AttributeError(f"module 'batchveh' has no attribute {name!r}")

@@ -1,4 +1,4 @@
-"""Figures: the seed's four torque figures, and sweep envelopes, every axis with its unit.
+"""Figures: the seed's four torque figures, sweep envelopes and Sobol' indices, every axis with its unit.
 
 Matplotlib picks its backend: inline in Jupyter, Agg on a machine without a display.
 
@@ -276,6 +276,63 @@ def climb_limit(
     ax.legend(fontsize="small")
     ax.set_title(f"sweep '{name}': peak drive torque; x = stuck, dotted = climb limit")
     return fig, limits
+
+
+# --- sensitivity figures ---------------------------------------------------------------
+# Each takes the tidy table of batchveh.sensitivity (a row per statistic and parameter).
+
+
+def sensitivity_bars(table: pd.DataFrame, statistic: str) -> plt.Figure:
+    """S1 and ST of each swept parameter for one statistic, with their confidence intervals."""
+    rows = table[table["statistic"] == statistic]
+    if rows.empty:
+        raise ValueError(f"statistic {statistic!r} is not in the table; it has {', '.join(table.statistic.unique())}")
+    x, w = np.arange(len(rows)), 0.38
+    fig, ax = plt.subplots(figsize=(max(5.0, 1.2 * len(rows) + 2), 4.2), constrained_layout=True)
+    ax.bar(x - w / 2, rows["S1"], w, yerr=rows["S1_conf"], capsize=3, label="S1: alone")
+    ax.bar(x + w / 2, rows["ST"], w, yerr=rows["ST_conf"], capsize=3, label="ST: with its interactions")
+    ax.axhline(0, color="k", lw=0.8)
+    ax.set_xticks(x, [label(p) for p in rows["parameter"]], rotation=20, ha="right")
+    ax.set_xlabel("swept parameter [unit]")
+    ax.set_ylabel("Sobol' index [-]")
+    ax.set_ylim(min(0.0, float((rows["S1"] - rows["S1_conf"]).min())) - 0.02, 1.05)
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(fontsize="small")
+    first = rows.iloc[0]
+    unit = f" [{first['unit']}]" if first["unit"] else ""
+    ax.set_title(
+        f"{statistic}{unit}: shares of its variance (std {first['std']:.3g}, {first['base_points']} base points)",
+        fontsize="medium",
+    )
+    return fig
+
+
+def sensitivity_heatmap(table: pd.DataFrame, statistics: list[str] | None = None, index: str = "ST") -> plt.Figure:
+    """`index` (ST or S1) of each statistic (rows) and parameter (columns), the value in each cell; a cell
+    whose confidence interval is wider than its index is written in brackets (not resolved from zero)."""
+    data = table if statistics is None else table[table["statistic"].isin(statistics)]
+    stats = list(dict.fromkeys(data["statistic"])) if statistics is None else list(statistics)
+    params = list(dict.fromkeys(data["parameter"]))
+    grid = data.pivot(index="statistic", columns="parameter", values=index).reindex(index=stats, columns=params)
+    conf = data.pivot(index="statistic", columns="parameter", values=f"{index}_conf").reindex(
+        index=stats, columns=params
+    )
+    fig, ax = plt.subplots(figsize=(2.0 + 1.25 * len(params), 1.2 + 0.42 * len(stats)), constrained_layout=True)
+    mesh = ax.pcolormesh(grid.to_numpy(), cmap="viridis", vmin=0.0, vmax=1.0)
+    fig.colorbar(mesh, ax=ax, label=f"{index} [-]")
+    for i, stat in enumerate(stats):
+        for j, p in enumerate(params):
+            v, c = grid.loc[stat, p], conf.loc[stat, p]
+            text = f"{v:.2f}" if 2 * c <= abs(v) else f"({v:.2f})"
+            ax.text(j + 0.5, i + 0.5, text, ha="center", va="center", color="w" if v < 0.6 else "k", fontsize="small")
+    ax.set_xticks(np.arange(len(params)) + 0.5, [label(p) for p in params], rotation=20, ha="right")
+    ax.set_yticks(np.arange(len(stats)) + 0.5, stats)
+    ax.invert_yaxis()
+    ax.set_xlabel("swept parameter [unit]")
+    ax.set_ylabel("statistic [its unit]")
+    name = "total" if index == "ST" else "first-order"
+    ax.set_title(f"{name} Sobol' index {index}; (brackets): interval wider than the index", fontsize="medium")
+    return fig
 
 
 def sweep_figures(df: pd.DataFrame, name: str, out_dir: str | Path, swept: list[str] | None = None) -> list[Path]:

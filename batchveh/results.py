@@ -264,6 +264,8 @@ class ResultFolder:
             for name in bad:
                 self.fs.delete_file(self._file(name))
             manifest = {**manifest, "parts": {k: v for k, v in old.get("parts", {}).items() if k not in bad}}
+            if "files" in old:  # figures and analyses written beside the parts: --overwrite still removes them
+                manifest["files"] = old["files"]
         elif resume:  # parts but no manifest: nothing can be verified
             for name in existing:
                 bad[name] = "no manifest to verify it against"
@@ -306,6 +308,17 @@ class ResultFolder:
         names = set(self.manifest.get("files", [])) | {Path(p).name for p in paths}
         self.manifest["files"] = sorted(names)
         self._save()
+
+    def add_files(self, files: dict[str, bytes]) -> list[str]:
+        """Write files derived from the parts (an analysis) into the folder, atomically, and record them in
+        its manifest where it has one, so that --overwrite removes them too; returns where they are.
+        Hold `lock()` around it."""
+        self.manifest = self.read_manifest() or {}
+        for name, data in files.items():
+            write_atomic(self.fs, self._file(name), data)
+        if self.manifest:
+            self.record_files([Path(name) for name in files])
+        return [self.where(name) for name in files]
 
     def remove(self) -> None:
         """Delete the files a sweep writes (parts, temporaries, manifest, recorded figures), nothing else."""
