@@ -295,7 +295,8 @@ def sensitivity_bars(table: pd.DataFrame, statistic: str) -> plt.Figure:
     ax.set_xticks(x, [label(p) for p in rows["parameter"]], rotation=20, ha="right")
     ax.set_xlabel("swept parameter [unit]")
     ax.set_ylabel("Sobol' index [-]")
-    ax.set_ylim(min(0.0, float((rows["S1"] - rows["S1_conf"]).min())) - 0.02, 1.05)
+    low = min(0.0, float((rows["S1"] - rows["S1_conf"]).min()), float((rows["ST"] - rows["ST_conf"]).min()))
+    ax.set_ylim(low - 0.02, max(1.05, float((rows["ST"] + rows["ST_conf"]).max()) + 0.02))
     ax.grid(axis="y", alpha=0.3)
     ax.legend(fontsize="small")
     first = rows.iloc[0]

@@ -432,10 +432,10 @@ def main(argv: list[str] | None = None) -> int:
 class _CallableModule(types.ModuleType):
     """`batchveh.sensitivity(result, ...)` calls `sensitivity`: the module and the function share the
     name (the CLI is `python -m batchveh.sensitivity`), and the import system binds the module to the
-    package's attribute, so the module itself answers the call."""
+    package's attribute, so the module itself answers the call (with no frame of its own between, so
+    a warning points at the caller's line)."""
 
-    def __call__(self, *args: Any, **kwargs: Any) -> pd.DataFrame:
-        return sensitivity(*args, **kwargs)
+    __call__ = staticmethod(sensitivity)
 
 
 sys.modules[__name__].__class__ = _CallableModule
