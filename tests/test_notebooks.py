@@ -17,6 +17,7 @@ def test_notebooks_exist():
         "02_torque_envelopes.ipynb",
         "03_motor_sizing.ipynb",
         "04_obstacles_and_missions.ipynb",
+        "05_sensitivity.ipynb",
     ]
 
 
