@@ -229,9 +229,10 @@ def test_slope_and_payload_match_the_closed_form_decomposition(tmp_path, vehicle
 
 @pytest.fixture(scope="module")
 def diverging(tmp_path_factory):
-    """Steering gains up to 3e5 at a 20 ms step: the stiffer ones diverge (status diverged, statistics NaN)."""
+    """Steering gains up to 1e5 at a 20 ms step: the stiffer ones diverge (status diverged, statistics NaN).
+    With the slip tyre every variant above 3.7e4 diverged and none below 3.4e4 (192 variants)."""
     tmp = tmp_path_factory.mktemp("diverging")
-    params = {"motors.steer_kp": {"low": 1e4, "high": 3e5, "log": True}, "slope_deg": {"low": 0.0, "high": 10.0}}
+    params = {"motors.steer_kp": {"low": 1e3, "high": 1e5, "log": True}, "slope_deg": {"low": 0.0, "high": 10.0}}
     fixed = {"total_time": 1.0, "ramp_time": 0.5, "time_step": 0.02}
     return _run(_spec(tmp, "diverging", params, 32, fixed=fixed))
 
