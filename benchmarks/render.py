@@ -2,7 +2,7 @@
 
     python benchmarks/render.py
 
-Today's result files (CURRENT, and every end-to-end file) come first, after NOTES.md; every other
+Today's result files (CURRENT) come first, after NOTES.md; every other
 file goes to the archive section, after ARCHIVE.md.
 """
 
@@ -26,6 +26,12 @@ CURRENT = {
     "cpu-tiny-courses.json": "Obstacles on MuJoCo C, 16 variants on 2 cores",
     "h200-warp-largest.json": "The largest warp batch",
     "cpu-2core-overhead.json": "batchveh mujoco against raw mujoco.batch on 2 cores",
+    "h200-end-to-end-slope_100k.json": "End to end on one H200, fresh machine",
+    "cpu-2core-end-to-end-slope_100k.json": "End to end on 2 CPU cores",
+    "h200-process-profile.json": "Where a warm 100,000-variant sweep process spends its time, one H200",
+    "h200-gpu-start.json": "JAX's GPU memory reserved at start or grown on demand, one H200",
+    "cpu-2core-tyres-cpu-slope.json": "The main job on MuJoCo C with the slip tyre and the rigid contact, 2 cores",
+    "h200-ray-gpus-warp.json": "Ray against the in-process sweep, the warp engine, one H200",
     "h200x2-ray-gpus.json": "Ray against the in-process sweep, two H200",
     "cpu-2core-ray-gpus.json": "Ray against the in-process sweep, 2 cores",
 }
@@ -308,6 +314,31 @@ def stages_section(files: list[Path]) -> list[str]:
     return out
 
 
+def process_profile_section(d: dict, name: str) -> list[str]:
+    """benchmarks/process_profile.py: where a sweep process's time goes."""
+    out = [f"### Where a sweep process spends its time: `{d['spec']}`", ""]
+    walls = ", ".join(f"{r['wall_s']:.1f} s" for r in d["plain"])
+    rest = ", ".join(f"{r['interpreter_start_and_exit_s']:.2f} s" for r in d["plain"] if "interpreter_start_and_exit_s" in r)
+    out += [f"Plain runs: {walls}" + (f"; interpreter start and exit {rest}." if rest else "."), ""]
+    if "pyspy" in d:
+        out += ["py-spy, main thread, seconds by the innermost batchveh frame (and what it called):", ""]
+        out += ["| s | where |", "| ---: | --- |"]
+        out += [f"| {r['seconds']:.2f} | `{r['where'][:110]}` |" for r in d["pyspy"]["top"][:14]]
+    else:
+        out += ["cProfile, cumulative (misplaces time inside XLA's callbacks):", ""]
+        out += ["| cumulative s | function |", "| ---: | --- |"]
+        out += [f"| {r['cumtime_s']:.2f} | `{r['function']}` |" for r in d["cprofile_cumulative_top"][:14]]
+    return [*out, "", f"(raw data: [{name}]({RAW}/{name}))", ""]
+
+
+def summary_section(d: dict, name: str, title: str) -> list[str]:
+    """A file whose 'summary' maps a way of running to its best and median wall (and 'ratios')."""
+    out = [f"### {title}", "", "| run | best wall s | median wall s |", "| --- | ---: | ---: |"]
+    out += [f"| {k} | {v['wall_best_s']:.1f} | {v['wall_median_s']:.1f} |" for k, v in d["summary"].items()]
+    ratios = "; ".join(f"{k} {v:.3f}" for k, v in d.get("ratios", {}).items())
+    return [*out, "", (f"Ratios: {ratios}. " if ratios else "") + f"(raw data: [{name}]({RAW}/{name}))", ""]
+
+
 def render_files(files: list[Path]) -> list[str]:
     """The tables of `files`, each file by its kind (from its name)."""
     out: list[str] = []
@@ -319,6 +350,12 @@ def render_files(files: list[Path]) -> list[str]:
         d = json.loads(f.read_text())
         if k == "end-to-end":
             out += [end_to_end_section(d, f.name), ""]
+        elif k == "process-profile":
+            out += process_profile_section(d, f.name)
+        elif k == "gpu-start":
+            out += summary_section(d, f.name, f"Starting a sweep process on a GPU, alternated: `{d['spec']}`")
+        elif k == "tyres-cpu":
+            out += summary_section(d, f.name, f"The main job on MuJoCo C, slip against rigid, alternated: `{d['spec']}`")
         elif k == "profile":
             out += ["### Kernel profile: MJX's solver against the fused one", "", profile_section(d, f.name), ""]
         elif k == "overhead":
@@ -350,7 +387,7 @@ def render_files(files: list[Path]) -> list[str]:
     return out
 
 
-KINDS = ("end-to-end", "stages", "scaling", "profile", "overhead", "mainjob", "largest", "ray-gpus", "contact-cost")
+KINDS = ("process-profile", "gpu-start", "tyres-cpu", "end-to-end", "stages", "scaling", "profile", "overhead", "mainjob", "largest", "ray-gpus", "contact-cost")
 ERRORS = (
     "Errors in the tables: median / p99 over non-slipping variants of |x - ref| / max(|ref|, 1 N m), against "
     "MuJoCo C in float64 with tolerance 1e-12 (and 200 iterations) on the file's reference variants. 'sum' is the "
@@ -366,7 +403,7 @@ def demote(markdown: str) -> str:
 
 def main():
     files = sorted((HERE / "results").glob("*.json"))
-    current = [f for f in files if f.name in CURRENT or "end-to-end" in f.name]
+    current = [f for f in files if f.name in CURRENT]
     current.sort(key=lambda f: (f.name not in CURRENT, list(CURRENT).index(f.name) if f.name in CURRENT else f.name))
     archived = [f for f in files if f not in current]
     out = [
