@@ -318,7 +318,8 @@ def process_profile_section(d: dict, name: str) -> list[str]:
     """benchmarks/process_profile.py: where a sweep process's time goes."""
     out = [f"### Where a sweep process spends its time: `{d['spec']}`", ""]
     walls = ", ".join(f"{r['wall_s']:.1f} s" for r in d["plain"])
-    rest = ", ".join(f"{r['interpreter_start_and_exit_s']:.2f} s" for r in d["plain"] if "interpreter_start_and_exit_s" in r)
+    key = "interpreter_start_and_exit_s"
+    rest = ", ".join(f"{r[key]:.2f} s" for r in d["plain"] if key in r)
     out += [f"Plain runs: {walls}" + (f"; interpreter start and exit {rest}." if rest else "."), ""]
     if "pyspy" in d:
         out += ["py-spy, main thread, seconds by the innermost batchveh frame (and what it called):", ""]
@@ -355,7 +356,8 @@ def render_files(files: list[Path]) -> list[str]:
         elif k == "gpu-start":
             out += summary_section(d, f.name, f"Starting a sweep process on a GPU, alternated: `{d['spec']}`")
         elif k == "tyres-cpu":
-            out += summary_section(d, f.name, f"The main job on MuJoCo C, slip against rigid, alternated: `{d['spec']}`")
+            title = f"The main job on MuJoCo C, slip against rigid, alternated: `{d['spec']}`"
+            out += summary_section(d, f.name, title)
         elif k == "profile":
             out += ["### Kernel profile: MJX's solver against the fused one", "", profile_section(d, f.name), ""]
         elif k == "overhead":
@@ -387,7 +389,20 @@ def render_files(files: list[Path]) -> list[str]:
     return out
 
 
-KINDS = ("process-profile", "gpu-start", "tyres-cpu", "end-to-end", "stages", "scaling", "profile", "overhead", "mainjob", "largest", "ray-gpus", "contact-cost")
+KINDS = (
+    "process-profile",
+    "gpu-start",
+    "tyres-cpu",
+    "end-to-end",
+    "stages",
+    "scaling",
+    "profile",
+    "overhead",
+    "mainjob",
+    "largest",
+    "ray-gpus",
+    "contact-cost",
+)
 ERRORS = (
     "Errors in the tables: median / p99 over non-slipping variants of |x - ref| / max(|ref|, 1 N m), against "
     "MuJoCo C in float64 with tolerance 1e-12 (and 200 iterations) on the file's reference variants. 'sum' is the "
