@@ -26,7 +26,7 @@ LAYERS = {
     "sweep": ("spec", "results", "chunks", "cluster"),
     "analysis": ("motors", "plot"),
     "face": ("",),  # batchveh/__init__.py: the public names
-    "cli": ("sweep", "run", "render"),
+    "cli": ("sweep", "run", "render", "sensitivity"),
 }
 # set at the top of batchveh/__init__.py before it imports any submodule, so any module may read them
 FACE_CONSTANTS = {"__version__", "GL_PROBLEM"}
