@@ -35,6 +35,7 @@ from batchveh import course
 from batchveh.config import ConfigError, did_you_mean
 from batchveh.params import GAINS, STATIC, base_params, parameter_specs, structural, variant_setup
 from batchveh.scenarios import Scenario, gravity_vector
+from batchveh.soil import check_ground
 from batchveh.vehicle import Vehicle, build_model, layout, rolling_resistance_torque
 
 # MjModel fields that are only fast-path flags: 0 ("not the same frame") is always correct
@@ -168,6 +169,7 @@ def make_batch(
     params = {k: np.full(n, v, float) for k, v in base_params(vehicle, scenario).items()}
     for k, v in table.items():
         params[k] = np.broadcast_to(np.asarray(v, float), (n,)).copy()
+    check_ground(vehicle.tyre.model, scenario.obstacle, "scenario")
     course.check(params, scenario.obstacle, "scenario")  # every variant, swept or not (a single run too)
     model = model_for(vehicle, scenario)
     fields: dict[str, np.ndarray] = {}

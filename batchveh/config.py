@@ -188,6 +188,9 @@ def from_mapping(cls: type, data: dict[str, Any], where: str) -> Any:
     """
     hints = typing.get_type_hints(cls)
     fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    expand = getattr(cls, "expand_mapping", None)  # a preset's values under the keys given
+    if expand is not None and isinstance(data, dict):
+        data = expand(data, where)
     sep = ": " if ":" not in where else "."
     unknown = [k for k in data if k not in fields]
     if unknown:

@@ -48,7 +48,7 @@ def _acts(name: str, scenario: bool) -> Acts:
         return "static"
     if name in MODEL:
         return "model"
-    if name.startswith("tyre."):  # read by the slip tyre each step, as a traced value
+    if name.startswith(("tyre.", "soil.")):  # read by the slip tyre or the soil each step, as a traced value
         return "control"
     if name in course.FIELDS:  # the ground's shape: compiled per combination, as the vehicle's geometry
         return "structure"

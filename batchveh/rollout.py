@@ -19,7 +19,7 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from batchveh import stats, tyres
+from batchveh import stats, tyres, wheels
 from batchveh.batch import import_mjx, servo_damping
 from batchveh.missions import body_forces_fn
 from batchveh.scenarios import Scenario, control_schedule, controls_fn
@@ -47,7 +47,7 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
     ctrl_fn = controls_fn(scenario)
     forces_fn = body_forces_fn(scenario)  # a mission's slope in time; None otherwise
     dt = model.opt.timestep
-    tp = tyres.params(params, jnp) if lay.slip_tyre else None
+    tp = wheels.params(params, lay.wheel_ground, jnp)
 
     damping = servo_damping(params, scenario.towing, xp=jnp)
 
@@ -59,8 +59,8 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
             xfrc = forces_fn(params, model.body_mass, i * dt).astype(d.xfrc_applied.dtype)
         if tp is not None:
             ts, wrench = tyre_step(d, ts, tp, lay, dt)
-            wheels = tyres.wheel_wrench_xfrc(wrench, d.xfrc_applied.shape[-2], lay, jnp)
-            xfrc = wheels if xfrc is None else xfrc + wheels
+            on_wheels = tyres.wheel_wrench_xfrc(wrench, d.xfrc_applied.shape[-2], lay, jnp)
+            xfrc = on_wheels if xfrc is None else xfrc + on_wheels
         if xfrc is not None:
             d = d.replace(xfrc_applied=xfrc)
         qvel_prev = d.qvel
@@ -74,17 +74,16 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
 
 
 def tyre_step(d: mjx.Data, ts, tp, lay: Layout, dt):
-    """The slip tyre's next state and wheel wrenches (4, 6) from MJX data after a step: positions
-    and contact forces of that step's forward pass, velocities now."""
-    kin = tyres.kinematics(d.xpos, d.xmat, d.qvel, lay, jnp)
-    fc = tyres.contact_force(d._impl.cfrc_ext, d.xfrc_applied, lay)
-    ts, wrench, _ = tyres.step(ts, kin, fc, tp, dt, jnp)
+    """The wheel-ground model's next state and wheel wrenches (4, 6) from MJX data after a step:
+    positions and contact forces of that step's forward pass, velocities now."""
+    cfrc = d._impl.cfrc_ext if lay.wheel_ground == "slip" else None
+    ts, wrench, _ = wheels.step(ts, d.xpos, d.xmat, d.qvel, cfrc, d.xfrc_applied, tp, lay, dt, jnp)
     return ts, wrench.astype(d.xfrc_applied.dtype)
 
 
 def _init(d0: mjx.Data):
     """The scan's first (data, tyre state)."""
-    return d0, tyres.init_state((), jnp, d0.qvel.dtype)
+    return d0, wheels.init_state((), jnp, d0.qvel.dtype)
 
 
 def reports_solver_iterations(model: mjx.Model) -> bool:
@@ -170,7 +169,7 @@ def mujoco_steps(
         if forces_fn is not None:
             forces = np.asarray(jax.jit(jax.vmap(forces_fn, in_axes=(None, None, 0)))(p, m.body_mass, times))
     lay = layout(m)
-    tyre = MujocoTyre(m, lay, p) if lay.slip_tyre else None
+    tyre = MujocoTyre(m, lay, p) if lay.applied else None
     mujoco.mj_forward(m, d)
     yield d, None
     for i in range(n_steps):
@@ -184,20 +183,20 @@ def mujoco_steps(
 
 
 class MujocoTyre:
-    """The slip tyre between MuJoCo C steps, in numpy, for one simulation or a batch (leading
-    axes). `wrench` takes the last forward pass's positions and contact forces, the velocities
+    """The slip tyre or the soil between MuJoCo C steps, in numpy, for one simulation or a batch
+    (leading axes). `wrench` takes the last forward pass's positions and contact forces, the velocities
     now, and the xfrc_applied that forward pass ran with; it returns xfrc_applied for the tyres
     alone and advances the tyre state."""
 
     def __init__(self, m: mujoco.MjModel, lay: Layout, params: Mapping[str, Any]):
         self.lay, self.dt, self.nbody = lay, float(m.opt.timestep), m.nbody
-        self.tp = tyres.params({k: np.asarray(v, np.float64) for k, v in params.items()}, np)
-        self.state = tyres.init_state(np.shape(params["friction"]), np)
+        self.tp = wheels.params({k: np.asarray(v, np.float64) for k, v in params.items()}, lay.wheel_ground, np)
+        self.state = wheels.init_state(np.shape(params["friction"]), np)
 
     def wrench(self, xpos, xmat, qvel, cfrc_ext, xfrc_applied) -> np.ndarray:
-        kin = tyres.kinematics(xpos, xmat, qvel, self.lay, np)
-        fc = tyres.contact_force(cfrc_ext, xfrc_applied, self.lay)
-        self.state, w, _ = tyres.step(self.state, kin, fc, self.tp, self.dt, np)
+        self.state, w, _ = wheels.step(
+            self.state, xpos, xmat, qvel, cfrc_ext, xfrc_applied, self.tp, self.lay, self.dt, np
+        )
         return tyres.wheel_wrench_xfrc(w, self.nbody, self.lay, np)
 
 

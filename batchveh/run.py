@@ -90,7 +90,7 @@ def simulate(
     """Run one scenario on MuJoCo C ('mujoco', float64) or MJX ('mjx', `precision` f32 or f64);
     record every step after the settle (the series' time is law time: its first sample is at
     t = time_step, the state after the first step of the laws; `window` is in law time too)."""
-    cfg = stats.StatsConfig.for_scenario(scenario, window)
+    cfg = stats.StatsConfig.for_scenario(scenario, window, slip_limit=stats.slip_limit(vehicle))
     batch = make_batch(vehicle, scenario, {})
     params = {k: float(v[0]) for k, v in batch.params.items()}
     n = scenario.n_steps

@@ -42,7 +42,8 @@ from batchveh import course, missions
 from batchveh.config import ConfigError, check_number, did_you_mean, field, from_mapping, load_yaml
 from batchveh.params import base_params, parameter_specs, variant_setup
 from batchveh.scenarios import Scenario, load_scenario, scenario_from_mapping
-from batchveh.stats import StatsConfig
+from batchveh.soil import check_ground
+from batchveh.stats import StatsConfig, slip_limit
 from batchveh.vehicle import Vehicle, load_vehicle, vehicle_from_mapping
 
 # numeric scenario fields that are neither swept nor fixed per sweep: they belong in the scenario
@@ -126,7 +127,9 @@ class SweepSpec:
 
     def stats_config(self) -> StatsConfig:
         """The reduction's settings: steps, window and filter."""
-        return StatsConfig.for_scenario(self.scenario, self.window, lowpass_s=self.lowpass_s)
+        return StatsConfig.for_scenario(
+            self.scenario, self.window, lowpass_s=self.lowpass_s, slip_limit=slip_limit(self.vehicle)
+        )
 
     def variant(self, row: Any) -> tuple[Vehicle, Scenario]:
         """The vehicle and scenario of one variant (a row of the variant or result table)."""
@@ -359,6 +362,7 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
     given = scenario  # before the fixed values: a mission's unread fields are named where they were set
     vehicle, scenario = variant_setup(vehicle, scenario, fixed)
     vehicle.validate(f"{where}: vehicle")
+    check_ground(vehicle.tyre.model, scenario.obstacle, f"{where}: scenario")
     course.check_sweep(base_params(vehicle, scenario), params, scenario.obstacle, sw.method in SAMPLED, where)
     if scenario.kind == "mission":
         missions.check_sweep(given, params, fixed, where)

@@ -33,9 +33,9 @@ from typing import Any
 
 import numpy as np
 
-from batchveh import mission_stats
+from batchveh import mission_stats, soil
 from batchveh.config import ConfigError
-from batchveh.vehicle import CORNERS, MOTORS
+from batchveh.vehicle import CORNERS, MOTORS, Vehicle
 
 CHANNELS = (*MOTORS, "drive_sum")  # 8 motors and the four-wheel drive-torque sum
 N_CH = len(CHANNELS)
@@ -51,6 +51,12 @@ HUGE_SPEED = 1e3  # m/s, chassis
 HUGE_POSITION = 1e6  # m
 
 
+def slip_limit(vehicle: Vehicle) -> float:
+    """The |slip ratio| above which a variant of `vehicle` is flagged as slipping: SLIP_LIMIT on
+    rigid ground; on soil, where a wheel drives at tens of percent of slip, soil.SLIP_LIMIT."""
+    return soil.SLIP_LIMIT if vehicle.tyre.model == "soil" else SLIP_LIMIT
+
+
 @dataclass(frozen=True)
 class StatsConfig:
     """Static settings of the reduction (they fix array shapes)."""
@@ -63,6 +69,7 @@ class StatsConfig:
     p95_samples: int = 256
     settle_steps: int = 0  # the first steps, left out of every statistic
     mission: mission_stats.MissionStatsConfig | None = None  # a mission's spans (scenario kind mission)
+    slip_limit: float = SLIP_LIMIT  # |slip ratio| above which the variant is flagged as slipping
 
     @staticmethod
     def make(
@@ -364,7 +371,7 @@ def finalize(c: dict[str, Any], cfg: StatsConfig, xp=np) -> dict[str, Any]:
     cols["wheel_speed"] = c["omega"] / nw
     cols["mean_speed"] = v_fwd
     cols["slip_ratio"] = xp.where(moving, 1.0 - v_fwd / xp.where(moving, v_rim, 1.0), 0.0)
-    cols["slipping"] = xp.abs(cols["slip_ratio"]) > SLIP_LIMIT
+    cols["slipping"] = xp.abs(cols["slip_ratio"]) > cfg.slip_limit
     denom = c["n"] * c["tt"] - c["t"] ** 2
     trend = (c["n"] * c["tv"] - c["t"] * c["v_fwd"]) / xp.where(denom > 0, denom, 1.0)
     cols["window_accel"] = xp.where(denom > 0, trend, 0.0)

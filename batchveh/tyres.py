@@ -49,7 +49,7 @@ import numpy as np
 
 from batchveh.config import field
 
-MODELS = ("rigid", "slip")
+MODELS = ("rigid", "slip", "soil")
 # state per wheel: u_x, u_y (m), phi (rad), q (rolling-resistance engagement, -1..1)
 NSTATE = 4
 # bristle damping as a share of critical damping of the rim mass on the tyre's linear stiffness
@@ -65,17 +65,20 @@ N_MIN = 1e-6
 
 @dataclass(frozen=True)
 class Tyre:
-    """How the ground pushes on the wheels: `rigid` (MuJoCo's frictional contact) or `slip`
-    (a slip tyre on MuJoCo's frictionless contact; batchveh/tyres.py, validation/TYRES.md).
+    """How the ground pushes on the wheels: `rigid` (MuJoCo's frictional contact), `slip`
+    (a slip tyre on MuJoCo's frictionless contact; batchveh/tyres.py, validation/TYRES.md) or
+    `soil` (a rigid wheel in soft soil, `vehicle.soil`; batchveh/soil.py, validation/SOIL.md).
 
     The slip tyre's friction is the scenario's `friction`, and its rolling resistance is
     `wheel.rolling_resistance`, both acting on each wheel's own normal force."""
 
-    model: Literal["rigid", "slip"] = "slip"
+    model: Literal["rigid", "slip", "soil"] = "slip"
     slip_stiffness: float = field(
         18.0, unit="1", gt=0, le=1e3, doc="longitudinal and lateral slip stiffness per unit normal load, C_s"
     )
-    relaxation_length: float = field(0.05, unit="m", gt=0, doc="relaxation length of the slip state, L")
+    relaxation_length: float = field(
+        0.05, unit="m", gt=0, doc="relaxation length of the slip state, L (the slip tyre's and the soil's)"
+    )
     patch_length: float = field(0.02, unit="m", ge=0, doc="contact patch length (its width is the wheel's)")
 
 
@@ -124,12 +127,14 @@ def params(p: Mapping[str, Any], xp=np) -> dict[str, Any]:
     }
 
 
-def _dot(a, b):
+def dot(a, b):
+    """The dot product over the last axis."""
     return (a * b).sum(-1)
 
 
-def _unit(v, xp, eps=1e-12):
-    return v / xp.maximum(xp.sqrt(_dot(v, v)), eps)[..., None]
+def unit(v, xp, eps=1e-12):
+    """v over its length (last axis)."""
+    return v / xp.maximum(xp.sqrt(dot(v, v)), eps)[..., None]
 
 
 def kinematics(xpos, xmat, qvel, lay, xp=np) -> dict[str, Any]:
@@ -171,18 +176,18 @@ def step(state, kin: Mapping[str, Any], f_contact, tp: Mapping[str, Any], dt, xp
     tp from `params`. Returns (new state, wrench (..., 4, 6): world force and torque at the wheel
     centre, as MuJoCo's xfrc_applied takes them, and a dict of diagnostics: normal force N,
     longitudinal and lateral force, spin moment)."""
-    n_force = xp.sqrt(_dot(f_contact, f_contact))
+    n_force = xp.sqrt(dot(f_contact, f_contact))
     touching = n_force > N_MIN
-    n_hat = _unit(f_contact, xp)
+    n_hat = unit(f_contact, xp)
     axle = kin["axle"]
-    e_x = _unit(xp.cross(axle, n_hat), xp)
+    e_x = unit(xp.cross(axle, n_hat), xp)
     e_y = xp.cross(n_hat, e_x)
-    n_wheel = _unit(n_hat - _dot(n_hat, axle)[..., None] * axle, xp)
+    n_wheel = unit(n_hat - dot(n_hat, axle)[..., None] * axle, xp)
     lever = -tp["radius"][..., None] * n_wheel  # centre -> contact point on the rim
     v_rim = kin["v"] + xp.cross(kin["w"], lever)
-    slip_v = xp.stack([_dot(v_rim, e_x), _dot(v_rim, e_y)], axis=-1)
-    speed = xp.abs(_dot(kin["v"], e_x))
-    spin_n = _dot(kin["w"], n_hat)
+    slip_v = xp.stack([dot(v_rim, e_x), dot(v_rim, e_y)], axis=-1)
+    speed = xp.abs(dot(kin["v"], e_x))
+    spin_n = dot(kin["w"], n_hat)
 
     mu, c_s = tp["mu"], tp["c_s"]
     mu_n = mu * n_force
@@ -195,7 +200,7 @@ def step(state, kin: Mapping[str, Any], f_contact, tp: Mapping[str, Any], dt, xp
     u = (u_old - dt * slip_v) / relax[..., None]
     # the brush law along u; past theta = 1 the bristle slides on its limit
     u_sat = 3.0 * mu * length / c_s
-    u_mag = xp.sqrt(_dot(u, u))
+    u_mag = xp.sqrt(dot(u, u))
     over = xp.maximum(u_mag / u_sat, 1.0)
     u = u / over[..., None]
     u_mag = u_mag / over
@@ -204,7 +209,7 @@ def step(state, kin: Mapping[str, Any], f_contact, tp: Mapping[str, Any], dt, xp
     damping = DAMPING_RATIO * 2.0 * xp.sqrt(k_lin * tp["rim_mass"])
     f = (mu_n * brush(theta, xp) / xp.maximum(u_mag, 1e-12))[..., None] * u
     f = f + damping[..., None] * (u - u_old) / dt
-    f_mag = xp.sqrt(_dot(f, f))
+    f_mag = xp.sqrt(dot(f, f))
     f = f * (xp.minimum(1.0, mu_n / xp.maximum(f_mag, 1e-12)))[..., None]
     f_mag = xp.minimum(f_mag, mu_n)
 
@@ -212,11 +217,7 @@ def step(state, kin: Mapping[str, Any], f_contact, tp: Mapping[str, Any], dt, xp
     polar, rho = tp["polar"], tp["rho"]
     left = xp.sqrt(xp.maximum(1.0 - (f_mag / xp.maximum(mu_n, 1e-12)) ** 2, 0.0))
     m_max = mu_n * rho * left
-    phi = (phi_old - dt * spin_n) / relax
-    k_phi = k_lin * polar
-    phi = xp.clip(phi, -m_max / xp.maximum(k_phi, 1e-12), m_max / xp.maximum(k_phi, 1e-12))
-    m_spin = k_phi * phi + damping * polar * (phi - phi_old) / dt
-    m_spin = xp.clip(m_spin, -m_max, m_max)
+    phi, m_spin = spin_bristle(phi_old, spin_n, relax, k_lin * polar, damping * polar, m_max, dt, xp)
 
     # rolling resistance: C_rr N r against the rolling, engaged over ROLL_ENGAGE of travel
     r = tp["radius"]
@@ -232,6 +233,17 @@ def step(state, kin: Mapping[str, Any], f_contact, tp: Mapping[str, Any], dt, xp
     new = xp.where(on, new, 0.0)
     info = {"normal": n_force, "fx": f[..., 0], "fy": f[..., 1], "spin_moment": m_spin}
     return new, wrench, info
+
+
+def spin_bristle(phi_old, spin_n, relax, k_phi, d_phi, m_max, dt, xp=np):
+    """The contact patch's torsional bristle: its next angle phi (rad) from the spin rate about
+    the normal (relaxed as the slip state, implicit), held where its spring reaches m_max (it
+    slides), and the moment on the wheel: k_phi phi + d_phi dphi/dt, within +-m_max."""
+    phi = (phi_old - dt * spin_n) / relax
+    limit = m_max / xp.maximum(k_phi, 1e-12)
+    phi = xp.clip(phi, -limit, limit)
+    m_spin = xp.clip(k_phi * phi + d_phi * (phi - phi_old) / dt, -m_max, m_max)
+    return phi, m_spin
 
 
 def wheel_wrench_xfrc(wrench, nbody: int, lay, xp=np):

@@ -30,6 +30,7 @@ import mujoco
 import numpy as np
 
 from batchveh.config import ConfigError, field, from_mapping, load_yaml
+from batchveh.soil import Soil
 from batchveh.tyres import Tyre
 
 CORNERS = ("lf", "rf", "lr", "rr")
@@ -151,8 +152,10 @@ class Vehicle:
     contacts: Literal["ground", "all"] = "ground"
     contact_model: ContactModel = ContactModel()
     # the wheel-ground model: 'slip' (a slip tyre on frictionless contacts) or 'rigid' (MuJoCo's
-    # frictional contact, contact_model above); batchveh/tyres.py
+    # frictional contact, contact_model above) or 'soil' (the soil below); batchveh/tyres.py
     tyre: Tyre = Tyre()
+    # the soft soil of `tyre.model: soil` (batchveh/soil.py): a published preset and its fields
+    soil: Soil = Soil()
 
     @property
     def total_mass(self) -> float:
@@ -260,19 +263,21 @@ def mjcf(
     rolling = rolling_resistance_torque(c_rr, w.radius, v.total_mass, abs(gravity[2]))
     # contype/conaffinity bits: wheels are 1, the ground 2; a wheel meets the ground
     # (1 & 1) but not another wheel (1 & 2 = 0) unless v.contacts is "all".
-    wheel_aff = 2 if v.contacts == "ground" else 3
+    wheel_type, wheel_aff = 1, (2 if v.contacts == "ground" else 3)
     hub_type, hub_aff = (0, 0) if v.contacts == "ground" else (1, 3)
+    if v.tyre.model == "soil":  # the soil carries the wheels: they never meet the ground's geoms (bits 1, 2)
+        wheel_type, wheel_aff = (0, 0) if v.contacts == "ground" else (4, 5)
 
     def wheel_geoms(name: str) -> str:
         cyl = f'type="cylinder" size="{_fmt(w.radius, w.width / 2)}" zaxis="0 1 0" mass="{w.mass:.10g}"'
         if w.collision == "cylinder":
             return (
-                f'<geom name="wheel_{name}" {cyl} contype="1" conaffinity="{wheel_aff}" friction="1 0 0" '
-                'rgba=".1 .1 .1 1"/>'
+                f'<geom name="wheel_{name}" {cyl} contype="{wheel_type}" conaffinity="{wheel_aff}" '
+                'friction="1 0 0" rgba=".1 .1 .1 1"/>'
             )
         return (
             f'<geom name="wheel_{name}_body" {cyl} contype="0" conaffinity="0" rgba=".1 .1 .1 1"/>'
-            f'<geom name="wheel_{name}" type="sphere" size="{w.radius:.10g}" mass="0" contype="1" '
+            f'<geom name="wheel_{name}" type="sphere" size="{w.radius:.10g}" mass="0" contype="{wheel_type}" '
             f'conaffinity="{wheel_aff}" friction="1 0 0" rgba="0 0 0 0"/>'
         )
 
@@ -376,7 +381,15 @@ class Layout:
     chassis_body: int
     hub_bodies: np.ndarray  # (4,) in CORNERS order
     wheel_bodies: np.ndarray
-    slip_tyre: bool  # the ground's contacts are frictionless: batchveh.tyres gives the tangential forces
+    # the wheel-ground model the model was built for: 'rigid' (MuJoCo's contact), 'slip' (frictionless
+    # contacts: batchveh.tyres gives the tangential forces) or 'soil' (no wheel-ground contacts:
+    # batchveh.soil gives every force)
+    wheel_ground: str
+
+    @property
+    def applied(self) -> bool:
+        """Whether the wheels' ground forces are applied by batchveh (slip tyre, soil) each step."""
+        return self.wheel_ground != "rigid"
 
 
 def layout(m: mujoco.MjModel) -> Layout:
@@ -398,5 +411,15 @@ def layout(m: mujoco.MjModel) -> Layout:
         chassis_body=m.body("chassis").id,
         hub_bodies=np.array([m.body(f"hub_{c}").id for c in CORNERS]),
         wheel_bodies=np.array([m.body(f"wheel_{c}").id for c in CORNERS]),
-        slip_tyre=bool(m.geom_condim[m.geom(GROUND).id] == 1),
+        wheel_ground=_wheel_ground(m),
     )
+
+
+def _wheel_ground(m: mujoco.MjModel) -> str:
+    """The wheel-ground model of a built model: 'soil' where the wheels cannot meet the ground's
+    geoms, 'slip' where the ground is frictionless, else 'rigid'."""
+    ground, wheel = m.geom(GROUND).id, m.geom(f"wheel_{CORNERS[0]}").id
+    meets = (m.geom_contype[wheel] & m.geom_conaffinity[ground]) or (m.geom_contype[ground] & m.geom_conaffinity[wheel])
+    if not meets:
+        return "soil"
+    return "slip" if m.geom_condim[ground] == 1 else "rigid"

@@ -16,7 +16,7 @@ LAYERS = {
     "base": ("config", "storage"),
     # what is simulated: the vehicle, the ground, the motion laws, the scenario kinds and the registry
     # of sweepable parameters (`tyres`: the wheel-ground models, once they land)
-    "model": ("vehicle", "tyres", "laws", "course", "scenarios", "missions", "params"),
+    "model": ("vehicle", "tyres", "soil", "wheels", "laws", "course", "scenarios", "missions", "params"),
     # the statistics reduced in the scan's carry: the engines fold them, the results describe them
     "reductions": ("stats", "mission_stats"),
     # a chunk of variants -> the batched model; the pure step and scan bodies

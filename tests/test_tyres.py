@@ -254,7 +254,7 @@ def test_rigid_model_is_kept():
 
     rigid = build_model(dataclasses.replace(SLIP, tyre=Tyre(model="rigid")))
     slip = build_model(SLIP)
-    assert not layout(rigid).slip_tyre and layout(slip).slip_tyre
+    assert (layout(rigid).wheel_ground, layout(slip).wheel_ground) == ("rigid", "slip")
     assert rigid.geom_condim[layout(rigid).ground_geom] == 3
     assert slip.geom_condim[layout(slip).ground_geom] == 1
 

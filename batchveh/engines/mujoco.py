@@ -128,7 +128,7 @@ class MujocoEngine:
         for name, values in batch.fields.items():
             b.expand(name)[:] = values
         # the slip tyre acts between steps: bound before the reset, so its forward pass fills them
-        tyre = _TyreStepper(b, m, lay, batch.params) if lay.slip_tyre else None
+        tyre = _TyreStepper(b, m, lay, batch.params) if lay.applied else None
         b.reset()
         radius = np.asarray(batch.params["wheel.radius"], np.float64)[:, None]
         damping = servo_damping(batch.params, self.scenario.towing)[:, None, :]  # (n, 1, 8)
