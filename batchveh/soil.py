@@ -136,6 +136,7 @@ def params(p: Mapping[str, Any], xp=np) -> dict[str, Any]:
         "radius": col(p["wheel.radius"]),
         "width": b,
         "quarter_mass": quarter,
+        "gravity": col(p["gravity"]),
         "length": col(p["tyre.relaxation_length"]),
         "rim_mass": col(p["wheel.mass"]) / 2 + col(p["motors.armature"]) / col(p["wheel.radius"]) ** 2,
     }
@@ -248,7 +249,7 @@ def step(state, kin: Mapping[str, Any], sp: Mapping[str, Any], dt, xp=np):
     # the slip state; its stiffness bound as the slip tyre's (validation/SOIL.md, the dt study)
     z_now = xp.clip(z, 0.0, r)
     theta1 = xp.arccos(1.0 - z_now / r)
-    load_guess = xp.maximum(sp["quarter_mass"] * 9.81, 1.0)
+    load_guess = xp.maximum(sp["quarter_mass"] * sp["gravity"], 1e-3)
     area = r * sp["width"] * theta1
     stiff = (sp["c"] * area + load_guess * sp["tan_phi"]) * r * xp.sin(theta1) / sp["K"]
     length = xp.maximum(sp["length"], stiff * dt**2 / (sp["rim_mass"] * tyres.STABLE_OMEGA_DT**2))
@@ -264,11 +265,12 @@ def step(state, kin: Mapping[str, Any], sp: Mapping[str, Any], dt, xp=np):
     k_z = (sp["n"] + 0.5) * xp.maximum(out["W"], 0.0) / xp.maximum(z_now, 1e-6)
     damper = SINK_DAMPING * 2.0 * xp.sqrt(k_z * sp["quarter_mass"])
     support = xp.maximum(out["W"] - damper * kin["v"][..., 2], 0.0)
+    # no damper on the slip state: it would push while u drifts at high slip (u is not held on a
+    # limit as the slip tyre's is); the servos damp the wheels' spin
+    fx = direction * out["DP"]
+    fy = out["Fy"]
     k_lin = stiff / length
     bristle = tyres.DAMPING_RATIO * 2.0 * xp.sqrt(k_lin * sp["rim_mass"])
-    du = (u - u_old) / dt
-    fx = direction * out["DP"] + bristle * du[..., 0]
-    fy = out["Fy"] + bristle * du[..., 1]
     f_max = out["strength"] + 1e-9
     # the patch's spin: the slip tyre's torsional bristle, limited by what shear strength is left
     half_chord = out["chord"] / 2
