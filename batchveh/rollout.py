@@ -81,9 +81,11 @@ def tyre_step(d: mjx.Data, ts, tp, lay: Layout, dt):
     return ts, wrench.astype(d.xfrc_applied.dtype)
 
 
-def _init(d0: mjx.Data):
-    """The scan's first (data, tyre state)."""
-    return d0, wheels.init_state((), jnp, d0.qvel.dtype)
+def _init(model: mjx.Model, d0: mjx.Data):
+    """The scan's first (data, wheel-ground state). The data is forwarded, as MuJoCo C's is before
+    its first step: a wheel-ground model reads the last forward pass's positions and contact
+    forces, and those of unforwarded data are zeros (the soil saw each wheel sunk to its axle)."""
+    return mjx.forward(model, d0), wheels.init_state((), jnp, d0.qvel.dtype)
 
 
 def reports_solver_iterations(model: mjx.Model) -> bool:
@@ -125,7 +127,7 @@ def mjx_stats(
 
     body = _scan(model, params, scenario, lay, out)
     d0 = mjx.make_data(model) if data is None else data
-    init = (_init(d0), (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
+    init = (_init(model, d0), (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
     (_, (acc, at_limit)), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps))
     cols = stats.finalize(acc, cfg, xp=jnp)
     if health:
@@ -149,7 +151,7 @@ def mjx_series(
 
     body = _scan(model, params, scenario, lay, out)
     d0 = mjx.make_data(model) if data is None else data
-    _, series = jax.lax.scan(body, (_init(d0), ()), jnp.arange(n_steps))
+    _, series = jax.lax.scan(body, (_init(model, d0), ()), jnp.arange(n_steps))
     return series
 
 
