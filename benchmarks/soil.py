@@ -114,7 +114,11 @@ def main(argv=None) -> None:
         e = err[sel]
         accuracy[name] = {
             "variants": int(sel.sum()),
-            **({"median": float(np.median(e)), "p99": float(np.quantile(e, 0.99)), "max": float(e.max())} if e.size else {}),
+            **(
+                {"median": float(np.median(e)), "p99": float(np.quantile(e, 0.99)), "max": float(e.max())}
+                if e.size
+                else {}
+            ),
         }
         print(f"warp f32 against C f64, {name}: {accuracy[name]}")
     result = {

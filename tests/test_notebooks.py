@@ -18,6 +18,7 @@ def test_notebooks_exist():
         "03_motor_sizing.ipynb",
         "04_obstacles_and_missions.ipynb",
         "05_sensitivity.ipynb",
+        "06_rover_on_soil.ipynb",
     ]
 
 
