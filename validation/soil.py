@@ -149,17 +149,17 @@ def figure(result, path):
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.8))
     for preset, rows in result["curves"].items():
         s = [r["slip"] for r in rows]
-        for ax, key in zip(axes, ("drawbar_pull_N", "torque_Nm", "sinkage_m")):
+        for ax, key in zip(axes, ("drawbar_pull_N", "torque_Nm", "sinkage_m"), strict=True):
             ax.plot(s, [r[key] for r in rows], label=preset)
     pub = result.get("published")
     if pub:
         s = [r["data"]["slip"] for r in pub["rows"]]
-        for ax, key in zip(axes, ("drawbar_pull_N", "torque_Nm", "sinkage_m")):
+        for ax, key in zip(axes, ("drawbar_pull_N", "torque_Nm", "sinkage_m"), strict=True):
             data = [r["data"].get(key) for r in pub["rows"]]
             if any(x is not None for x in data):
                 ax.plot(s, data, "ko", label="published test")
                 ax.plot(s, [r["model"][key] for r in pub["rows"]], "k--", label="model, its wheel")
-    for ax, title in zip(axes, ("drawbar pull, N", "driving torque, N m", "sinkage, m")):
+    for ax, title in zip(axes, ("drawbar pull, N", "driving torque, N m", "sinkage, m"), strict=True):
         ax.set_xlabel("slip ratio")
         ax.set_title(title)
         ax.grid(alpha=0.3)
