@@ -40,7 +40,13 @@ EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_PARTIAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 1
 # engine 6.74e6 with the rigid contact (benchmarks/results/h200-warp-soft.json); with the slip tyre
 # (the default) MJX 2.87e6 (8,192 variants) and the warp engine 1.73e7 (benchmarks/results/h200-tyres*.json)
 RATE_PER_CPU = {"mujoco": 3.9e4, "mjx": 5.0e3, "warp": 2.2e3}  # per MuJoCo thread or CPU core
-RATE_PER_GPU = {"rigid": {"mjx": 1.4e6, "warp": 6.7e6}, "slip": {"mjx": 2.9e6, "warp": 1.7e7}}
+# the soil model: the warp engine 1.14e7 and 1.43e7 on two H200 (benchmarks/results/h200-soil*.json), the lower
+# taken; MJX with soil is not measured on a GPU: the slip tyre's rate stands in
+RATE_PER_GPU = {
+    "rigid": {"mjx": 1.4e6, "warp": 6.7e6},
+    "slip": {"mjx": 2.9e6, "warp": 1.7e7},
+    "soil": {"mjx": 2.9e6, "warp": 1.1e7},
+}
 COMPILE_S = {"mujoco": 2.0, "mjx-cpu": 60.0, "mjx-gpu": 15.0, "warp-cpu": 40.0, "warp-gpu": 60.0}
 
 
@@ -244,7 +250,7 @@ def run_sweep(
 
 def estimate(backend: str, variant_steps: int, tyre: str = "slip") -> tuple[float, str]:
     """(seconds, on what) for `variant_steps` on the backend and the devices this process sees, with
-    the wheel-ground model `tyre` ('slip' or 'rigid')."""
+    the wheel-ground model `tyre` ('slip', 'rigid' or 'soil')."""
     from batchveh.engines import has_gpu
 
     if backend == "mujoco":
