@@ -40,12 +40,12 @@ def _choose_gl() -> str | None:
 
 GL_PROBLEM = _choose_gl()
 
-from batchveh import missions as _missions  # noqa: E402, F401  (registers the scenario kind 'mission')
 from batchveh.config import ConfigError  # noqa: E402  (after _choose_gl: these import mujoco)
-from batchveh.results import ResultError, load, metadata, units  # noqa: E402
-from batchveh.scenarios import SCENARIOS, Scenario, load_scenario, make_scenario  # noqa: E402
-from batchveh.spec import SweepSpec, load_spec, spec_from_mapping, variant_table  # noqa: E402
-from batchveh.vehicle import MOTORS, Vehicle, load_vehicle  # noqa: E402
+from batchveh.model import missions as _missions  # noqa: E402, F401  (registers the scenario kind 'mission')
+from batchveh.model.scenarios import SCENARIOS, Scenario, load_scenario, make_scenario  # noqa: E402
+from batchveh.model.vehicle import MOTORS, Vehicle, load_vehicle  # noqa: E402
+from batchveh.sweeping.results import ResultError, load, metadata, units  # noqa: E402
+from batchveh.sweeping.spec import SweepSpec, load_spec, spec_from_mapping, variant_table  # noqa: E402
 
 _LAZY = {"simulate": "batchveh.run", "run_sweep": "batchveh.sweep"}
 

@@ -20,10 +20,10 @@ from pathlib import Path
 import mujoco  # noqa: E402  (batchveh/__init__ chose MUJOCO_GL before this import)
 import numpy as np
 
-from batchveh.batch import make_batch  # noqa: E402
 from batchveh.config import ConfigError, check_dataclass  # noqa: E402
-from batchveh.scenarios import Scenario, load_scenario  # noqa: E402
-from batchveh.vehicle import Vehicle, load_vehicle  # noqa: E402
+from batchveh.model.scenarios import Scenario, load_scenario  # noqa: E402
+from batchveh.model.vehicle import Vehicle, load_vehicle  # noqa: E402
+from batchveh.stepping.batch import make_batch  # noqa: E402
 
 NO_GL = (
     "no OpenGL for offscreen rendering ({err}); install EGL (libegl1 libegl-mesa0 libgl1-mesa-dri) "
@@ -65,7 +65,7 @@ def frames(
     max_frames: int | None = None,
 ) -> list[np.ndarray]:
     """Simulate on MuJoCo C and return RGB frames (height, width, 3), uint8, at `fps` per simulated second."""
-    from batchveh.rollout import mujoco_steps
+    from batchveh.stepping.rollout import mujoco_steps
 
     batch = make_batch(vehicle, scenario, {})
     m = batch.model
@@ -144,7 +144,7 @@ def main(argv: list[str] | None = None) -> int:
         src = Path(args.source)
         if src.is_dir():
             import batchveh
-            from batchveh.spec import spec_of_result
+            from batchveh.sweeping.spec import spec_of_result
 
             if args.variant is None:
                 raise ConfigError(f"{src}: a sweep result; give --variant N")

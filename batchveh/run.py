@@ -19,12 +19,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from batchveh import course, stats
-from batchveh.batch import make_batch
 from batchveh.config import ConfigError
-from batchveh.params import base_params
-from batchveh.scenarios import SCENARIOS, Scenario, load_scenario
-from batchveh.vehicle import CORNERS, MOTORS, Vehicle, load_vehicle
+from batchveh.model import course
+from batchveh.model.params import base_params
+from batchveh.model.scenarios import SCENARIOS, Scenario, load_scenario
+from batchveh.model.vehicle import CORNERS, MOTORS, Vehicle, load_vehicle
+from batchveh.stepping import stats
+from batchveh.stepping.batch import make_batch
 
 UNITS = {
     "time": "s",
@@ -95,16 +96,16 @@ def simulate(
     params = {k: float(v[0]) for k, v in batch.params.items()}
     n = scenario.n_steps
     if backend == "mujoco":
-        from batchveh.rollout import mujoco_series
+        from batchveh.stepping.rollout import mujoco_series
 
         series = mujoco_series(batch.model, params, scenario=scenario, n_steps=n)
     elif backend == "mjx":
         import jax
         import jax.numpy as jnp
 
-        from batchveh.batch import mjx_model
-        from batchveh.rollout import float_precision, mjx_series
-        from batchveh.vehicle import layout
+        from batchveh.model.vehicle import layout
+        from batchveh.stepping.batch import mjx_model
+        from batchveh.stepping.rollout import float_precision, mjx_series
 
         lay = layout(batch.model)
         with float_precision(precision):
@@ -113,7 +114,7 @@ def simulate(
             series = jax.device_get(fn(mx, {k: jnp.asarray(v) for k, v in params.items()}))
     else:
         raise ConfigError(f"--backend: {backend!r} is not allowed; allowed: mujoco, mjx")
-    from batchveh.rollout import series_stats
+    from batchveh.stepping.rollout import series_stats
 
     st = series_stats(series, cfg)  # over every step: the reduction leaves the settle out itself
     st = course.flag(st, params, scenario.obstacle)  # stuck or short: an obstacle not got over
@@ -127,13 +128,13 @@ def write(result: RunResult, out: Path, overwrite: bool = False) -> list[Path]:
     if target.exists() and not overwrite:
         raise FileExistsError(f"{target} exists; give --overwrite to replace it")
     out.mkdir(parents=True, exist_ok=True)
-    from batchveh.results import annotated_table
-    from batchveh.storage import write_table
+    from batchveh.sweeping.results import annotated_table
+    from batchveh.sweeping.storage import write_table
 
     fields = {name: {"unit": UNITS.get(name, "")} for name in result.series.columns}
     meta = {"scenario": repr(result.scenario), "vehicle": repr(result.vehicle)}
     write_table(annotated_table(result.series, fields, meta), target)
-    from batchveh.plot import seed_figures
+    from batchveh.analysis.plot import seed_figures
 
     title = f"{result.scenario.kind}, slope {result.scenario.slope_deg:g} deg, mu {result.scenario.friction:g}"
     return [target, *seed_figures(result.series, out, title)]

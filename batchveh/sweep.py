@@ -24,13 +24,13 @@ from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
-from batchveh.chunks import ChunkRunner
 from batchveh.config import ConfigError, OneLineParser
-from batchveh.results import PART, Locked, ResultError, ResultFolder, load
-from batchveh.spec import MAX_VARIANTS, SweepSpec, load_spec, saltelli_block
+from batchveh.sweeping.chunks import ChunkRunner
+from batchveh.sweeping.results import PART, Locked, ResultError, ResultFolder, load
+from batchveh.sweeping.spec import MAX_VARIANTS, SweepSpec, load_spec, saltelli_block
 
 if TYPE_CHECKING:
-    from batchveh.cluster import RayExecutor
+    from batchveh.sweeping.cluster import RayExecutor
 
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_PARTIAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
 
@@ -154,7 +154,7 @@ def run_sweep(
     """Run `spec`, writing part files under `out` (a local path or a URI pyarrow.fs understands);
     return a summary dict.
 
-    `executor`: None runs the chunks in this process; a `batchveh.cluster.RayExecutor` runs them
+    `executor`: None runs the chunks in this process; a `batchveh.sweeping.cluster.RayExecutor` runs them
     on Ray workers, and chunks that kept failing there are named in the summary's "failed"
     ({chunk: why}) while the others are written. Raises FileExistsError where results exist and
     neither resume nor overwrite is given, results.Locked where another sweep writes there,
@@ -375,7 +375,7 @@ def main(argv: list[str] | None = None) -> int:
             init_warp_without_cuda()
         executor = None
         if args.executor == "ray":
-            from batchveh import cluster
+            from batchveh.sweeping import cluster
 
             started_ray = cluster.connect(args.address)
             executor = cluster.RayExecutor()
@@ -393,7 +393,7 @@ def main(argv: list[str] | None = None) -> int:
             executor=executor,
         )
         if args.plots:
-            from batchveh.plot import sweep_figures
+            from batchveh.analysis.plot import sweep_figures
 
             figs = sweep_figures(load(s["out"]), spec.name, s["out"], swept=list(spec.params))
             s["folder"].record_files(figs)

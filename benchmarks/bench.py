@@ -58,7 +58,7 @@ def slope_table(n: int, seed: int = 0):
     """n variants drawn (fixed seed) from sweeps/slope.yaml's grid, on the chosen wheel collision shape."""
     import dataclasses
 
-    from batchveh.spec import load_spec, variant_table
+    from batchveh.sweeping.spec import load_spec, variant_table
 
     spec = load_spec(Path(__file__).resolve().parent.parent / "sweeps" / "slope.yaml")
     wheel = dataclasses.replace(spec.vehicle.wheel, collision=WHEEL_COLLISION)
@@ -85,7 +85,7 @@ def _cols(table, spec):
 
 def set_solver(m, name: str, tolerance: float | None = None):
     """The named SOLVERS setting (and a tolerance, for the reference) through batchveh's own setter."""
-    from batchveh.batch import apply_solver
+    from batchveh.stepping.batch import apply_solver
 
     solver, it, ls = SOLVERS[name]
     apply_solver(
@@ -101,8 +101,8 @@ def set_solver(m, name: str, tolerance: float | None = None):
 
 def mjx_model(spec, table, solver: str):
     """The batched MJX model of the table's variants with the named SOLVERS setting, and its in_axes."""
-    from batchveh.batch import make_batch
-    from batchveh.batch import mjx_model as put
+    from batchveh.stepping.batch import make_batch
+    from batchveh.stepping.batch import mjx_model as put
 
     batch = make_batch(spec.vehicle, spec.scenario, _cols(table, spec))
     set_solver(batch.model, solver)
@@ -139,7 +139,7 @@ def best_time(fn, *args, repeat: int = 10) -> float:
 def bench_serial(spec, table, n_steps):
     import mujoco
 
-    from batchveh.batch import make_batch
+    from batchveh.stepping.batch import make_batch
 
     batch = make_batch(spec.vehicle, spec.scenario, _cols(table, spec))
     m = batch.model
@@ -162,7 +162,7 @@ def raw_controls(spec, batch, n_steps: int) -> np.ndarray:
     import jax
     import jax.numpy as jnp
 
-    from batchveh.scenarios import control_schedule
+    from batchveh.model.scenarios import control_schedule
 
     f = jax.jit(jax.vmap(control_schedule(spec.scenario), in_axes=(0, None)))
     params = {k: jnp.asarray(v) for k, v in batch.params.items()}
@@ -180,8 +180,8 @@ def bench_raw_rollout(spec, table, n_steps, block: int = 100, nthread: int = 0, 
     covers the rollout calls only."""
     from mujoco.batch import Batch
 
-    from batchveh.batch import make_batch
     from batchveh.engines.mujoco import cpus
+    from batchveh.stepping.batch import make_batch
 
     size, nthread = size or len(table), nthread or cpus()
     wall = 0.0
@@ -209,7 +209,7 @@ def bench_raw_step(spec, table, n_steps):
     drive ramp, not the scenario's schedule), nothing recorded. Returns (variant-steps/s, threads)."""
     from mujoco.batch import Batch
 
-    from batchveh.batch import make_batch
+    from batchveh.stepping.batch import make_batch
 
     batch = make_batch(spec.vehicle, spec.scenario, _cols(table, spec))
     b = Batch(batch.model, nsim=batch.n)
@@ -257,9 +257,9 @@ def run_backend(kind, spec, table, chunk, solver="default", x64=False, matmul="h
     """(columns, wall s, compile s, peak device bytes) of batchveh's backend on the table."""
     import jax
 
-    from batchveh import stats
-    from batchveh.batch import make_batch
     from batchveh.engines import make_engine
+    from batchveh.stepping import stats
+    from batchveh.stepping.batch import make_batch
 
     sc = spec.scenario
     cfg = stats.StatsConfig.make(sc.time_step, sc.n_steps, spec.window)
@@ -358,8 +358,8 @@ def warp_rows(rows, spec, ref_table, ref, solver, sizes, direct_sizes, n_steps):
     warp engine's accuracy on the reference sample."""
     from mjwarp_direct import bench_mjwarp_direct
 
-    from batchveh.batch import make_batch
-    from batchveh.scenarios import gravity_vector
+    from batchveh.model.scenarios import gravity_vector
+    from batchveh.stepping.batch import make_batch
 
     cols_acc, *_ = run_backend("warp", spec, ref_table, len(ref_table), solver)
     acc = accuracy(cols_acc, ref)
@@ -475,7 +475,7 @@ def main():
     import mujoco
 
     from batchveh.engines.mujoco import cpus
-    from batchveh.vehicle import Vehicle
+    from batchveh.model.vehicle import Vehicle
 
     spec, _ = slope_table(1)
     n_steps = spec.scenario.n_steps

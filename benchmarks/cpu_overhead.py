@@ -59,11 +59,11 @@ def profile_sweep(spec, n, out, chunk=None):
     threads' CPU in the fold and the control schedule, and the sweep's own setup and writes."""
     from mujoco.batch import Batch
 
-    import batchveh.chunks as ch
     import batchveh.engines.mujoco as em
     import batchveh.sweep as sw
-    from batchveh import stats
-    from batchveh.results import ResultFolder
+    import batchveh.sweeping.chunks as ch
+    from batchveh.stepping import stats
+    from batchveh.sweeping.results import ResultFolder
 
     acc: dict[str, float] = {}
 
@@ -135,7 +135,7 @@ def main():
 
     from batchveh.engines.common import CPU_CHUNK
     from batchveh.engines.mujoco import cpus, default_threads
-    from batchveh.spec import load_spec
+    from batchveh.sweeping.spec import load_spec
 
     spec = load_spec(Path(__file__).resolve().parent.parent / "sweeps" / "slope.yaml")
     table = spec.table().rows(0, args.n).drop(columns="variant")

@@ -24,7 +24,7 @@ def bench_mjwarp_direct(model, gravity, friction, omega, n_steps: int, graph_ste
     from mujoco.mjx.third_party import mujoco_warp as mjw
 
     from batchveh.engines.warp import constraint_rows
-    from batchveh.vehicle import layout
+    from batchveh.model.vehicle import layout
 
     n = len(omega)
     lay = layout(model)

@@ -75,7 +75,7 @@ def main():
     ap.add_argument("--note", default="")
     args = ap.parse_args()
     sys.path.insert(0, str(ROOT))
-    from batchveh.spec import load_spec
+    from batchveh.sweeping.spec import load_spec
 
     rows = []
     with tempfile.TemporaryDirectory() as tmp:

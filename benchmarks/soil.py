@@ -30,12 +30,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from batchveh import soil, stats  # noqa: E402
-from batchveh.batch import make_batch  # noqa: E402
 from batchveh.engines import make_engine  # noqa: E402
-from batchveh.scenarios import make_scenario  # noqa: E402
-from batchveh.tyres import Tyre  # noqa: E402
-from batchveh.vehicle import CORNERS, Vehicle  # noqa: E402
+from batchveh.model import soil  # noqa: E402
+from batchveh.model.scenarios import make_scenario  # noqa: E402
+from batchveh.model.tyres import Tyre  # noqa: E402
+from batchveh.model.vehicle import CORNERS, Vehicle  # noqa: E402
+from batchveh.stepping import stats
+from batchveh.stepping.batch import make_batch  # noqa: E402
 
 MODELS = ("soil", "slip", "rigid")
 

@@ -28,9 +28,9 @@ def main():
     import jax
     from bench import _cols, slope_table
 
-    from batchveh import stats
-    from batchveh.batch import make_batch
     from batchveh.engines.warp import WarpEngine
+    from batchveh.stepping import stats
+    from batchveh.stepping.batch import make_batch
 
     rows = []
     for n in args.sizes:

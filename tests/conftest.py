@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from batchveh.tyres import Tyre
-from batchveh.vehicle import Vehicle
+from batchveh.model.tyres import Tyre
+from batchveh.model.vehicle import Vehicle
 
 # MuJoCo's frictional contact (`tyre: {model: rigid}`): the tests of that contact's own behaviour
 RIGID = Vehicle(tyre=Tyre(model="rigid"))

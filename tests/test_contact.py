@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import batchveh
-from batchveh.vehicle import build_model, contact_time_constant
+from batchveh.model.vehicle import build_model, contact_time_constant
 
 # Targets (issue 10): >= 0.95 mu N from 3 mm/s, >= 0.8 mu N at 1 mm/s.
 # Measured with the defaults (elliptic, impratio 100): 1.00 at every speed on both engines.
@@ -79,8 +79,8 @@ def test_drag_friction_is_coulomb_on_mjx_float64():
     import jax
     import jax.numpy as jnp
 
-    from batchveh.batch import import_mjx
-    from batchveh.rollout import float_precision
+    from batchveh.stepping.batch import import_mjx
+    from batchveh.stepping.rollout import float_precision
 
     mjx = import_mjx()
     mus = np.array([0.3, 0.7, 1.0])

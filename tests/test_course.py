@@ -1,4 +1,4 @@
-"""Obstacles and terrain (batchveh.course): energy, the climb limit, engines, refusals.
+"""Obstacles and terrain (batchveh.model.course): energy, the climb limit, engines, refusals.
 
 All on the seed's vehicle (144.8 kg, wheel radius 0.195 m), straight line, MuJoCo C unless named.
 Tolerances, each with the value measured beside it:
@@ -8,16 +8,17 @@ import numpy as np
 import pytest
 import yaml
 
-from batchveh import course, stats
-from batchveh.batch import make_batch, model_for, varying_fields
 from batchveh.config import ConfigError
 from batchveh.engines.mujoco import MujocoEngine
+from batchveh.model import course
+from batchveh.model.scenarios import make_scenario
+from batchveh.model.vehicle import CORNERS, Vehicle, Wheel, rolling_resistance_torque
 from batchveh.run import main as run_main
 from batchveh.run import simulate
-from batchveh.scenarios import make_scenario
-from batchveh.spec import load_spec
+from batchveh.stepping import stats
+from batchveh.stepping.batch import make_batch, model_for, varying_fields
 from batchveh.sweep import main
-from batchveh.vehicle import CORNERS, Vehicle, Wheel, rolling_resistance_torque
+from batchveh.sweeping.spec import load_spec
 
 G = 9.81
 # drive work on a 0.25 km/h step climb against m g h + rolling-resistance work + the final kinetic

@@ -9,11 +9,11 @@ _SCRIPT = """
 import json, sys
 import numpy as np
 import jax
-from batchveh import stats
-from batchveh.batch import make_batch
+from batchveh.stepping import stats
+from batchveh.stepping.batch import make_batch
 from batchveh.engines.mjx import MjxEngine
-from batchveh.scenarios import make_scenario
-from batchveh.vehicle import Vehicle
+from batchveh.model.scenarios import make_scenario
+from batchveh.model.vehicle import Vehicle
 sc = make_scenario("straight_line", total_time=0.5, ramp_time=0.25, friction=0.9)
 cfg = stats.StatsConfig.make(sc.time_step, sc.n_steps)
 batch = make_batch(Vehicle(), sc, {"slope_deg": np.linspace(0, 15, 6)})

@@ -24,10 +24,10 @@ from hypothesis import strategies as st  # noqa: E402
 
 import batchveh  # noqa: E402
 from batchveh.config import ConfigError  # noqa: E402
-from batchveh.params import base_params, parameter_specs  # noqa: E402
-from batchveh.scenarios import SCENARIOS, numeric_fields  # noqa: E402
-from batchveh.stats import STATUS  # noqa: E402
-from batchveh.vehicle import numeric_paths  # noqa: E402
+from batchveh.model.params import base_params, parameter_specs  # noqa: E402
+from batchveh.model.scenarios import SCENARIOS, numeric_fields  # noqa: E402
+from batchveh.model.vehicle import numeric_paths  # noqa: E402
+from batchveh.stepping.stats import STATUS  # noqa: E402
 
 EXAMPLES = int(os.environ.get("BATCHVEH_FUZZ_EXAMPLES", "8"))
 STEP_BUDGET = 2000  # variant-steps simulated per example at most
@@ -148,8 +148,8 @@ def _assert_ok_rows_finite(frame, what):
 @FUZZ
 @given(raw=spec_mapping())
 def test_fuzz_sweep_specs(raw, capsys):
-    from batchveh.spec import load_spec
     from batchveh.sweep import main
+    from batchveh.sweeping.spec import load_spec
 
     with tempfile.TemporaryDirectory() as d:
         path = _write(Path(d), "spec.yaml", raw)

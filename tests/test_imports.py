@@ -10,24 +10,26 @@ from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent / "batchveh"
 
-# The data flow, lowest first: each module may import its own layer and the ones below it. The
-# package is flat today; these layers are the folders it is headed for (../shared/DESIGN.md).
+# The data flow, lowest first: each module may import its own layer and the ones below it. A layer
+# is a folder of the package (test_each_folder_is_one_layer), but for the base and the top.
 LAYERS = {
-    "base": ("config", "storage"),
-    # what is simulated: the vehicle, the ground, the motion laws, the scenario kinds and the registry
-    # of sweepable parameters (`tyres`: the wheel-ground models, once they land)
-    "model": ("vehicle", "tyres", "soil", "wheels", "laws", "course", "scenarios", "missions", "params"),
-    # the statistics reduced in the scan's carry: the engines fold them, the results describe them
-    "reductions": ("stats", "mission_stats"),
-    # a chunk of variants -> the batched model; the pure step and scan bodies
-    "batch": ("batch", "rollout"),
+    "base": ("config",),
+    # what is simulated: the vehicle, the wheel-ground models, the ground, the motion laws, the scenario
+    # kinds and the registry of sweepable parameters
+    "model": tuple(
+        f"model.{m}"
+        for m in ("", "vehicle", "tyres", "soil", "wheels", "laws", "course", "scenarios", "missions", "params")
+    ),
+    # a chunk of variants -> the batched model; the pure step and scan bodies; the reductions in the carry
+    "stepping": tuple(f"stepping.{m}" for m in ("", "batch", "rollout", "stats", "mission_stats")),
     "engines": ("engines", "engines.common", "engines.mujoco", "engines.mjx", "engines.warp"),
     # how many variants run, where, and where the results go
-    "sweep": ("spec", "results", "chunks", "cluster"),
-    "analysis": ("motors", "plot"),
+    "sweeping": tuple(f"sweeping.{m}" for m in ("", "storage", "spec", "results", "chunks", "cluster")),
+    "analysis": tuple(f"analysis.{m}" for m in ("", "motors", "plot", "sensitivity")),
     "face": ("",),  # batchveh/__init__.py: the public names
     "cli": ("sweep", "run", "render", "sensitivity"),
 }
+LAYERS = {k: tuple(m.rstrip(".") for m in v) for k, v in LAYERS.items()}
 # set at the top of batchveh/__init__.py before it imports any submodule, so any module may read them
 FACE_CONSTANTS = {"__version__", "GL_PROBLEM"}
 
@@ -118,8 +120,18 @@ def test_the_graph_sees_function_level_and_relative_imports(tmp_path):
     """The reader itself: a function-level import and a TYPE_CHECKING import are edges."""
     src = tmp_path / "mod.py"
     src.write_text(
-        "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from batchveh.scenarios import Scenario\n"
+        "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from batchveh.model.scenarios import Scenario\n"
         "def f():\n    from batchveh.engines import mjx\n    from batchveh import __version__\n"
     )
-    modules = {"scenarios": src, "engines": src, "engines.mjx": src, "": src}
-    assert _imports("course", src, modules) == {"scenarios", "engines.mjx"}
+    modules = {"model.scenarios": src, "engines": src, "engines.mjx": src, "": src}
+    assert _imports("model.course", src, modules) == {"model.scenarios", "engines.mjx"}
+
+
+def test_each_folder_is_one_layer():
+    """The folders show the flow: every module of a subpackage sits in the layer named after it."""
+    layer = _layer_of()
+    names = list(LAYERS)
+    for module in _graph():
+        folder = module.split(".")[0] if "." in module or module in LAYERS else None
+        if folder in LAYERS:
+            assert names[layer[module]] == folder, f"{module} is in layer {names[layer[module]]}, not {folder}"

@@ -5,8 +5,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from batchveh import laws
 from batchveh.config import ConfigError
+from batchveh.model import laws
 
 
 def test_ramp_saturates_and_seed_ramp_does_not():

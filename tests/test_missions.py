@@ -13,19 +13,19 @@ import pandas as pd
 import pytest
 from conftest import SLOPE_SUM_RTOL, slope_torque
 
-from batchveh import mission_stats, stats
-from batchveh.batch import make_batch
+from batchveh.analysis.motors import Motor, check_mission, smallest
 from batchveh.engines.mjx import MjxEngine
 from batchveh.engines.mujoco import MujocoEngine
-from batchveh.mission_stats import MissionStatsConfig
-from batchveh.missions import mission_controls, mission_slope
-from batchveh.motors import Motor, check_mission, smallest
-from batchveh.params import base_params
-from batchveh.results import metadata, units
+from batchveh.model.missions import mission_controls, mission_slope
+from batchveh.model.params import base_params
+from batchveh.model.scenarios import make_scenario
+from batchveh.model.vehicle import CORNERS, MOTORS
 from batchveh.run import main as run_main
-from batchveh.scenarios import make_scenario
+from batchveh.stepping import mission_stats, stats
+from batchveh.stepping.batch import make_batch
+from batchveh.stepping.mission_stats import MissionStatsConfig
 from batchveh.sweep import main as sweep_main
-from batchveh.vehicle import CORNERS, MOTORS
+from batchveh.sweeping.results import metadata, units
 
 # A mission of one straight segment against straight_line with the same law, on MuJoCo C, flat:
 # the same steps and floats; measured 3.5e-16 (relative, worst statistic)
@@ -58,7 +58,7 @@ def _mission(segments, **kw):
 def _run(engine_cls, scenario, window=None, **kw):
     cfg = stats.StatsConfig.for_scenario(scenario, window)
     engine = engine_cls(scenario, cfg, len(PAYLOADS), **kw)
-    from batchveh.vehicle import Vehicle
+    from batchveh.model.vehicle import Vehicle
 
     return engine.run(make_batch(Vehicle(), scenario, {"payload.mass": PAYLOADS}))
 
@@ -174,9 +174,9 @@ def test_span_times_in_the_metadata_are_the_durations(tmp_path):
     """mission_spans_s of a sweep's file: each segment's (start, end) in s of law time, from the
     durations by hand. The cruise by distance lasts 0.1 m / (0.7 km/h) = 0.5143 s; the ends
     0.5, 1.0143, 1.2643 s fall on the nearest 5 ms steps: 100, 203, 253."""
-    from batchveh.missions import mission_of
-    from batchveh.spec import spec_from_mapping
+    from batchveh.model.missions import mission_of
     from batchveh.sweep import run_sweep
+    from batchveh.sweeping.spec import spec_from_mapping
 
     segments = [
         {"kind": "accelerate", "duration": 0.5},
@@ -444,8 +444,8 @@ def test_read_field_is_accepted(tmp_path, capsys, segments, rest):
 
 
 def test_example_mission_sweep_writes_units_and_spans(tmp_path):
-    from batchveh.spec import load_spec
     from batchveh.sweep import run_sweep
+    from batchveh.sweeping.spec import load_spec
 
     summary = run_sweep(load_spec("sweeps/mission.yaml"), out=tmp_path / "m", limit=1, progress=False)
     assert summary["ok"] == 1
@@ -524,7 +524,7 @@ def test_mission_on_warp_matches_mujoco_c():
 
 def test_a_mission_without_segments_runs_the_example():
     """`python -m batchveh.run mission` has a duty cycle to run: the example, 18 s, with its climb."""
-    from batchveh.missions import EXAMPLE_SEGMENTS, mission_of
+    from batchveh.model.missions import EXAMPLE_SEGMENTS, mission_of
 
     sc = make_scenario("mission")
     assert sc.total_time == pytest.approx(18.0)

@@ -11,9 +11,9 @@ Tolerances (measured on CPU, then a small margin; the measured value is next to 
 import numpy as np
 from conftest import SLOPE_SUM_RTOL, slope_torque
 
+from batchveh.model.scenarios import make_scenario
+from batchveh.model.vehicle import MOTORS
 from batchveh.run import simulate
-from batchveh.scenarios import make_scenario
-from batchveh.vehicle import MOTORS
 
 F64_SERIES_ATOL = 5e-4  # N m: measured 1.8e-4 with the elliptic cone (1.9e-6 pyramidal): MJX and C stop
 # their elliptic Newton iterations at the same tolerance on differently assembled cones

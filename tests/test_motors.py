@@ -4,8 +4,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from batchveh.analysis.motors import Motor, check, load_motors, smallest
 from batchveh.config import ConfigError
-from batchveh.motors import Motor, check, load_motors, smallest
 
 
 def _frame(rms, peak, wheel_speed):

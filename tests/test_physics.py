@@ -19,10 +19,10 @@ import numpy as np
 import pytest
 from conftest import SLOPE_SUM_RTOL, slope_torque
 
-from batchveh.motors import WHEELS
+from batchveh.analysis.motors import WHEELS
+from batchveh.model.scenarios import make_scenario, scenario_from_mapping
+from batchveh.model.vehicle import build_model
 from batchveh.run import simulate
-from batchveh.scenarios import make_scenario, scenario_from_mapping
-from batchveh.vehicle import build_model
 
 CORNERS = ("lf", "rf", "lr", "rr")
 
@@ -385,9 +385,9 @@ def test_the_settle_is_left_out_of_every_statistic(vehicle):
     import jax
     import jax.numpy as jnp
 
-    from batchveh import stats
-    from batchveh.batch import make_batch
-    from batchveh.rollout import float_precision, mujoco_series, series_stats
+    from batchveh.stepping import stats
+    from batchveh.stepping.batch import make_batch
+    from batchveh.stepping.rollout import float_precision, mujoco_series, series_stats
 
     sc = straight(10, total_time=1.0)
     assert sc.settle_time == 0.5 and sc.settle_steps == 100 and sc.n_steps == 300
@@ -433,7 +433,7 @@ def test_the_settle_is_left_out_of_every_statistic(vehicle):
 def test_settle_time_is_a_scenario_setting():
     """settle_time fixes the step count: set in the scenario, refused as a swept or fixed parameter."""
     from batchveh.config import ConfigError
-    from batchveh.spec import spec_from_mapping
+    from batchveh.sweeping.spec import spec_from_mapping
 
     sc = scenario_from_mapping({"kind": "straight_line", "settle_time": 0.25, "time_step": 0.0025}, "test")
     assert sc.settle_steps == 100 and sc.n_steps == 100 + 4000

@@ -5,8 +5,8 @@ import pytest
 import yaml
 
 import batchveh
-from batchveh import plot
-from batchveh.motors import Motor, check
+from batchveh.analysis import plot
+from batchveh.analysis.motors import Motor, check
 
 
 @pytest.fixture(scope="module")
@@ -89,7 +89,7 @@ def test_sweep_figures_and_seed_figures_of_a_variant(sweep, tmp_path):
     df, out = sweep
     paths = plot.sweep_figures(df, "tiny", tmp_path)
     assert {p.name for p in paths} >= {"envelope.png", "heatmap.png"}
-    from batchveh.spec import spec_of_result
+    from batchveh.sweeping.spec import spec_of_result
 
     row = df.iloc[7]
     vehicle, scenario = spec_of_result(out).variant(row)

@@ -21,10 +21,10 @@ import ray
 import yaml
 
 import batchveh
-from batchveh import cluster
-from batchveh.results import ResultFolder
-from batchveh.spec import load_spec
 from batchveh.sweep import main, run_sweep
+from batchveh.sweeping import cluster
+from batchveh.sweeping.results import ResultFolder
+from batchveh.sweeping.spec import load_spec
 
 # 64 variants of 1,100 steps (0.5 s settle, 5 s at 5 ms): a chunk of 8 takes about 0.2 s on one thread,
 # so a kill right after the first part lands while most chunks are still to run

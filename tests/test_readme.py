@@ -18,7 +18,7 @@ import pytest
 import yaml
 
 from batchveh import spec_from_mapping
-from batchveh.scenarios import scenario_from_mapping
+from batchveh.model.scenarios import scenario_from_mapping
 
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"

@@ -14,9 +14,9 @@ import pytest
 import yaml
 
 import batchveh
-from batchveh.results import ResultFolder
-from batchveh.spec import load_spec
 from batchveh.sweep import main, run_sweep
+from batchveh.sweeping.results import ResultFolder
+from batchveh.sweeping.spec import load_spec
 
 
 def _spec(tmp_path, name="r", **over):
@@ -105,7 +105,7 @@ def test_a_variant_mujoco_resets_is_diverged_not_ok(tmp_path):
 
 def test_statistics_of_a_huge_state_are_diverged():
     """A state that is finite but absurd (MuJoCo's mjMAXVAL idea) is diverged, not ok."""
-    from batchveh import stats
+    from batchveh.stepping import stats
 
     cfg = stats.StatsConfig.make(0.01, 20)
     acc = stats.init(cfg, (2,))

@@ -5,7 +5,7 @@ import sys
 
 import numpy as np
 
-from batchveh.scenarios import make_scenario
+from batchveh.model.scenarios import make_scenario
 
 
 def test_frames_are_not_blank_and_move(vehicle):

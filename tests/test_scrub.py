@@ -42,11 +42,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from batchveh.batch import make_batch, servo_damping
-from batchveh.rollout import float_precision, mujoco_steps
+from batchveh.model.scenarios import control_schedule, make_scenario
+from batchveh.model.vehicle import CORNERS, MOTORS, layout
 from batchveh.run import simulate
-from batchveh.scenarios import control_schedule, make_scenario
-from batchveh.vehicle import CORNERS, MOTORS, layout
+from batchveh.stepping.batch import make_batch, servo_damping
+from batchveh.stepping.rollout import float_precision, mujoco_steps
 
 SEED_WINDOW = (0.2, 1.0)  # s: the window, where every point of each contact slides forward
 ROLLING_WINDOW = (0.2, 2.8)  # s: past the step of the drive speeds at t = 0, before the one at 3 s

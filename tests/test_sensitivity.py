@@ -22,12 +22,12 @@ from conftest import SLOPE_SUM_RTOL, slope_torque
 from SALib.analyze import sobol as salib_sobol
 
 import batchveh
-from batchveh import plot
-from batchveh.results import ResultFolder
+from batchveh.analysis import plot
 from batchveh.sensitivity import SensitivityWarning, main, write
-from batchveh.spec import load_spec, variant_table
 from batchveh.sweep import main as sweep_main
 from batchveh.sweep import run_sweep
+from batchveh.sweeping.results import ResultFolder
+from batchveh.sweeping.spec import load_spec, variant_table
 
 CLIMB = {"total_time": 2.0, "ramp_time": 0.5}  # a 0.5 s ramp, the steady window 1..2 s: 500 steps in all
 SLOPE = {"low": 2.0, "high": 15.0}  # deg
@@ -315,7 +315,7 @@ def local_ray():
 
 
 def test_ray_sobol_sweep_equals_the_in_process_one(small, tmp_path, local_ray):
-    from batchveh import cluster
+    from batchveh.sweeping import cluster
 
     path, reference = small
     out = tmp_path / "ray"

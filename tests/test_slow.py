@@ -5,7 +5,7 @@ import pytest
 from conftest import SLOPE_SUM_RTOL, slope_torque
 
 import batchveh
-from batchveh.spec import spec_from_mapping
+from batchveh.sweeping.spec import spec_from_mapping
 
 pytestmark = pytest.mark.slow
 

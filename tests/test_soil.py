@@ -1,4 +1,4 @@
-"""The soil wheel-ground model (batchveh/soil.py, issue 22) against closed forms, an adaptive
+"""The soil wheel-ground model (batchveh/model/soil.py, issue 22) against closed forms, an adaptive
 quadrature and the engines against each other.
 
 References, none of them taken from the code under test:
@@ -19,14 +19,15 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from batchveh import soil, stats
-from batchveh.batch import make_batch
 from batchveh.config import ConfigError
 from batchveh.engines import make_engine
-from batchveh.rollout import mujoco_steps
-from batchveh.scenarios import make_scenario
-from batchveh.tyres import Tyre
-from batchveh.vehicle import CORNERS, Vehicle, layout
+from batchveh.model import soil
+from batchveh.model.scenarios import make_scenario
+from batchveh.model.tyres import Tyre
+from batchveh.model.vehicle import CORNERS, Vehicle, layout
+from batchveh.stepping import stats
+from batchveh.stepping.batch import make_batch
+from batchveh.stepping.rollout import mujoco_steps
 
 G = 9.81
 SOIL = Vehicle(tyre=Tyre(model="soil"))

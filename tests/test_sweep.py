@@ -14,8 +14,8 @@ import yaml
 from conftest import slope_torque
 
 import batchveh
-from batchveh.spec import load_spec, variant_table
 from batchveh.sweep import main, run_sweep
+from batchveh.sweeping.spec import load_spec, variant_table
 
 # Backends agree (MJX float32 vs MuJoCo C float64) on non-slipping variants:
 # - the four-wheel sum, which physics fixes, within SUM_ATOL N m;
@@ -254,7 +254,7 @@ def test_shipped_sweeps_are_valid():
 
 
 def test_non_finite_samples_mark_a_variant_diverged():
-    from batchveh import stats
+    from batchveh.stepping import stats
 
     cfg = stats.StatsConfig.make(0.01, 20)
     acc = stats.init(cfg, (2,))
@@ -280,7 +280,7 @@ def test_non_finite_samples_mark_a_variant_diverged():
 
 def test_block_update_equals_step_by_step():
     """Folding 37 steps at once gives what folding them one by one gives (the two backends' paths)."""
-    from batchveh import stats
+    from batchveh.stepping import stats
 
     rng = np.random.default_rng(0)
     n, steps = 3, 37

@@ -1,4 +1,4 @@
-"""The slip tyre (batchveh/tyres.py, issue 20) against closed forms.
+"""The slip tyre (batchveh/model/tyres.py, issue 20) against closed forms.
 
 References, none of them taken from the code under test:
 - Static load transfer on a slope s (../shared/seed/REFERENCE.md): each rear wheel carries
@@ -19,13 +19,14 @@ import dataclasses
 import numpy as np
 import pytest
 
-from batchveh import stats, tyres
-from batchveh.batch import make_batch
 from batchveh.engines import make_engine
+from batchveh.model import tyres
+from batchveh.model.scenarios import make_scenario
+from batchveh.model.tyres import Tyre
+from batchveh.model.vehicle import CORNERS, Vehicle, Wheel, layout
 from batchveh.run import simulate
-from batchveh.scenarios import make_scenario
-from batchveh.tyres import Tyre
-from batchveh.vehicle import CORNERS, Vehicle, Wheel, layout
+from batchveh.stepping import stats
+from batchveh.stepping.batch import make_batch
 
 G = 9.81
 SLIP = Vehicle()  # the default wheel-ground model is the slip tyre
@@ -250,7 +251,7 @@ def test_halving_dt_moves_sizing_statistics_little(kind, kw):
 def test_rigid_model_is_kept():
     """`tyre: {model: rigid}` compiles MuJoCo's frictional contact (condim 3, the contact model's cone)
     and no tyre; `slip` frictionless contacts (condim 1)."""
-    from batchveh.vehicle import build_model
+    from batchveh.model.vehicle import build_model
 
     rigid = build_model(dataclasses.replace(SLIP, tyre=Tyre(model="rigid")))
     slip = build_model(SLIP)

@@ -15,15 +15,15 @@ import pyarrow.parquet as pq
 import pytest
 from conftest import SLOPE_SUM_RTOL, slope_torque
 
-from batchveh import stats
-from batchveh.batch import apply_solver, make_batch
 from batchveh.config import ConfigError
 from batchveh.engines import make_engine
 from batchveh.engines.mujoco import MujocoEngine
 from batchveh.engines.warp import WarpEngine
-from batchveh.results import load
-from batchveh.scenarios import make_scenario
-from batchveh.vehicle import MOTORS
+from batchveh.model.scenarios import make_scenario
+from batchveh.model.vehicle import MOTORS
+from batchveh.stepping import stats
+from batchveh.stepping.batch import apply_solver, make_batch
+from batchveh.sweeping.results import load
 
 # four-wheel sums, warp float32 vs MuJoCo C float64: measured 1.2e-6 (slope x friction) and 2.0e-6
 # (payload x wheel radius)

@@ -57,7 +57,7 @@ WEIGHT = MASS * G  # N
 R_WHEEL, HALF_WIDTH = 0.195, 0.045
 BOX_HALF = (0.1, 0.1, 0.05)
 ARMATURE = 1e10  # kg on the imposed-speed joints
-# body_invweight0[wheel, 0] of the seed vehicle (batchveh.vehicle.build_model(Vehicle()) at
+# body_invweight0[wheel, 0] of the seed vehicle (batchveh.model.vehicle.build_model(Vehicle()) at
 # commit f6d9f0f: 0.03140719 1/kg for each of the four wheels). Hard-coded: no batchveh import.
 SEED_INVWEIGHT = 0.03140719
 TOLERANCE = 1e-8  # MuJoCo's default opt.tolerance

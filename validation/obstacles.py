@@ -28,11 +28,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from batchveh import course, stats  # noqa: E402
-from batchveh.batch import make_batch  # noqa: E402
 from batchveh.engines.mujoco import MujocoEngine  # noqa: E402
-from batchveh.scenarios import make_scenario  # noqa: E402
-from batchveh.vehicle import Vehicle  # noqa: E402
+from batchveh.model import course  # noqa: E402
+from batchveh.model.scenarios import make_scenario  # noqa: E402
+from batchveh.model.vehicle import Vehicle  # noqa: E402
+from batchveh.stepping import stats
+from batchveh.stepping.batch import make_batch  # noqa: E402
 
 G = 9.81
 PEAK_HEIGHTS = (0.01, 0.02, 0.04, 0.06, 0.08, 0.10, 0.12, 0.14)  # m

@@ -41,11 +41,11 @@ import jax  # noqa: E402
 import mujoco  # noqa: E402
 
 import batchveh  # noqa: E402
-from batchveh import stats  # noqa: E402
-from batchveh.batch import make_batch  # noqa: E402
-from batchveh.rollout import float_precision  # noqa: E402
-from batchveh.scenarios import control_schedule, make_scenario  # noqa: E402
-from batchveh.vehicle import CORNERS, Vehicle, layout  # noqa: E402
+from batchveh.model.scenarios import control_schedule, make_scenario  # noqa: E402
+from batchveh.model.vehicle import CORNERS, Vehicle, layout  # noqa: E402
+from batchveh.stepping import stats  # noqa: E402
+from batchveh.stepping.batch import make_batch  # noqa: E402
+from batchveh.stepping.rollout import float_precision  # noqa: E402
 
 DTS = (0.005, 0.0025, 0.00125, 0.000625)
 QUICK_DTS = DTS[:3]
@@ -78,7 +78,7 @@ def rollout(vehicle: Vehicle, sc, settle: float = 0.0) -> dict[str, np.ndarray]:
 
     Returns per-step samples (after step i, at t = (i + 1) dt; `time` is t - settle) of
     stats.sample plus: tau_applied (n, 8), pen (deepest contact, m, < 0 in contact) and
-    ncon. With settle 0 the controls are those of batchveh.rollout.mujoco_steps."""
+    ncon. With settle 0 the controls are those of batchveh.stepping.rollout.mujoco_steps."""
     batch = make_batch(vehicle, sc, {})
     m = batch.model
     lay = layout(m)

@@ -30,11 +30,11 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from test_scrub import ROLLING_WINDOW, SEED_WINDOW, _record, _window  # noqa: E402
 
-from batchveh.batch import make_batch  # noqa: E402
-from batchveh.rollout import mujoco_steps  # noqa: E402
+from batchveh.model.scenarios import make_scenario  # noqa: E402
+from batchveh.model.vehicle import MOTORS, ContactModel, Vehicle  # noqa: E402
 from batchveh.run import simulate  # noqa: E402
-from batchveh.scenarios import make_scenario  # noqa: E402
-from batchveh.vehicle import MOTORS, ContactModel, Vehicle  # noqa: E402
+from batchveh.stepping.batch import make_batch  # noqa: E402
+from batchveh.stepping.rollout import mujoco_steps  # noqa: E402
 
 # (impratio, impedance d): MuJoCo's solimp default (0.9), the old batchveh default, and softer
 SETTINGS = [(10, 0.9), (100, 0.9), (30, 0.3), (100, 0.4), (100, 0.3), (100, 0.25), (100, 0.2), (100, 0.15)]

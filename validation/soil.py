@@ -24,13 +24,14 @@ from scipy.optimize import brentq
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from batchveh import soil, stats  # noqa: E402
-from batchveh.batch import make_batch  # noqa: E402
 from batchveh.engines import make_engine  # noqa: E402
-from batchveh.rollout import mujoco_steps  # noqa: E402
-from batchveh.scenarios import make_scenario  # noqa: E402
-from batchveh.tyres import Tyre  # noqa: E402
-from batchveh.vehicle import CORNERS, Vehicle, layout  # noqa: E402
+from batchveh.model import soil  # noqa: E402
+from batchveh.model.scenarios import make_scenario  # noqa: E402
+from batchveh.model.tyres import Tyre  # noqa: E402
+from batchveh.model.vehicle import CORNERS, Vehicle, layout  # noqa: E402
+from batchveh.stepping import stats  # noqa: E402
+from batchveh.stepping.batch import make_batch  # noqa: E402
+from batchveh.stepping.rollout import mujoco_steps  # noqa: E402
 
 DATA = ROOT / "validation" / "soil_data"
 SLIPS = np.array([-0.3, -0.1, 0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9])

@@ -31,12 +31,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from batchveh import course, stats  # noqa: E402
-from batchveh.batch import make_batch, servo_damping  # noqa: E402
 from batchveh.engines import make_engine  # noqa: E402
-from batchveh.rollout import mujoco_steps  # noqa: E402
-from batchveh.scenarios import make_scenario  # noqa: E402
-from batchveh.vehicle import CORNERS, GROUND, ContactModel, Vehicle, Wheel, ground_geom, layout, mjcf  # noqa: E402
+from batchveh.model import course  # noqa: E402
+from batchveh.model.scenarios import make_scenario  # noqa: E402
+from batchveh.model.vehicle import CORNERS, GROUND, ContactModel, Vehicle, Wheel, ground_geom, layout, mjcf  # noqa: E402
+from batchveh.stepping import stats
+from batchveh.stepping.batch import make_batch, servo_damping  # noqa: E402
+from batchveh.stepping.rollout import mujoco_steps  # noqa: E402
 
 G = 9.81
 RESULTS = Path(__file__).resolve().parent / "results" / "terrain.json"
@@ -225,7 +226,7 @@ def cleared(final_x: float, v: Vehicle, sc) -> bool:
 
 def grounds(part: str, collision: str):
     """(label, vehicle, scenario, model) of each ground a part compares, for `collision` wheels."""
-    from batchveh.batch import model_for
+    from batchveh.stepping.batch import model_for
 
     v = vehicle(collision)
     if part == "terrain":
@@ -251,7 +252,7 @@ ENGINE_SKIP = {
 def sink_rows() -> list[dict]:
     """MuJoCo C, the vehicle at rest for 2 s on the plane and on flat height fields (the plane 5 cm
     below): each wheel's sink into the ground (mm) and its contacts."""
-    from batchveh.batch import model_for
+    from batchveh.stepping.batch import model_for
 
     out = []
     for collision in ("cylinder", "sphere"):

@@ -18,12 +18,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from batchveh import course, stats  # noqa: E402
-from batchveh.batch import make_batch  # noqa: E402
 from batchveh.engines.mujoco import MujocoEngine  # noqa: E402
-from batchveh.scenarios import make_scenario  # noqa: E402
-from batchveh.tyres import Tyre  # noqa: E402
-from batchveh.vehicle import CORNERS, Vehicle, Wheel, rolling_resistance_torque  # noqa: E402
+from batchveh.model import course  # noqa: E402
+from batchveh.model.scenarios import make_scenario  # noqa: E402
+from batchveh.model.tyres import Tyre  # noqa: E402
+from batchveh.model.vehicle import CORNERS, Vehicle, Wheel, rolling_resistance_torque  # noqa: E402
+from batchveh.stepping import stats
+from batchveh.stepping.batch import make_batch  # noqa: E402
 
 G = 9.81
 MODELS = {"slip": Vehicle(), "rigid": Vehicle(tyre=Tyre(model="rigid"))}

@@ -15,9 +15,9 @@ An engine is built for one scenario and reduction (`stats.StatsConfig`) and has
 
 from __future__ import annotations
 
-from batchveh import stats
 from batchveh.engines.common import auto_chunk, has_gpu, resolve_backend
-from batchveh.scenarios import Scenario
+from batchveh.model.scenarios import Scenario
+from batchveh.stepping import stats
 
 ENGINES = ("mujoco", "mjx", "warp")
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import jax
 import numpy as np
 
-from batchveh.batch import VariantBatch
+from batchveh.stepping.batch import VariantBatch
 
 # warp engine on one H200, elliptic contact: 4.88e6 / 4.98e6 / 4.98e6 variant-steps/s at 65k / 131k / 262k
 # variants (benchmarks/results/h200-warp-elliptic10.json): 131k is as fast as any larger chunk

@@ -20,12 +20,12 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from batchveh import stats
-from batchveh.batch import VariantBatch, mjx_model
 from batchveh.engines.common import pad
-from batchveh.rollout import float_precision, mjx_stats
-from batchveh.scenarios import Scenario
-from batchveh.vehicle import layout
+from batchveh.model.scenarios import Scenario
+from batchveh.model.vehicle import layout
+from batchveh.stepping import stats
+from batchveh.stepping.batch import VariantBatch, mjx_model
+from batchveh.stepping.rollout import float_precision, mjx_stats
 
 CPU_BLOCK = 64
 

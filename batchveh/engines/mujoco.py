@@ -20,12 +20,12 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from batchveh import stats
-from batchveh.batch import VariantBatch, servo_damping
-from batchveh.missions import body_forces_fn
-from batchveh.rollout import MujocoTyre, float_precision
-from batchveh.scenarios import Scenario, control_schedule
-from batchveh.vehicle import layout
+from batchveh.model.missions import body_forces_fn
+from batchveh.model.scenarios import Scenario, control_schedule
+from batchveh.model.vehicle import layout
+from batchveh.stepping import stats
+from batchveh.stepping.batch import VariantBatch, servo_damping
+from batchveh.stepping.rollout import MujocoTyre, float_precision
 
 # Steps per Batch.rollout call. The statistics add each block's sums to the carry, so the block
 # length fixes the order of the float additions: another length changes results in the last bits.

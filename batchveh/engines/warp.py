@@ -23,12 +23,12 @@ import jax
 import mujoco
 import numpy as np
 
-from batchveh.batch import VariantBatch, import_mjx
 from batchveh.config import ConfigError
 from batchveh.engines.common import warp_installed
 from batchveh.engines.mjx import MjxEngine
-from batchveh.rollout import mjx_stats
-from batchveh.vehicle import layout
+from batchveh.model.vehicle import layout
+from batchveh.stepping.batch import VariantBatch, import_mjx
+from batchveh.stepping.rollout import mjx_stats
 
 # contacts a world may hold: 2 per cylinder wheel (MuJoCo Warp), 1 per sphere wheel, and room for a
 # chassis and hubs that touch the ground on a flipped vehicle

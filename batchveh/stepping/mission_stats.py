@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from batchveh import missions
-from batchveh.vehicle import MOTORS
+from batchveh.model import missions
+from batchveh.model.vehicle import MOTORS
 
 CHANNELS = (*MOTORS, "drive_sum")  # as stats.CHANNELS
 TORQUE_STATS = {

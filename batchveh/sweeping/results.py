@@ -34,10 +34,10 @@ import pyarrow as pa
 import pyarrow.fs as pafs
 import pyarrow.parquet as pq
 
-from batchveh import mission_stats
 from batchveh.config import ConfigError
-from batchveh.stats import CHANNELS
-from batchveh.storage import file_sha256, filesystem, parquet_bytes, write_atomic
+from batchveh.stepping import mission_stats
+from batchveh.stepping.stats import CHANNELS
+from batchveh.sweeping.storage import file_sha256, filesystem, parquet_bytes, write_atomic
 
 MANIFEST = "manifest.json"
 LOCK = ".batchveh.lock"

@@ -38,13 +38,13 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-from batchveh import course, missions
 from batchveh.config import ConfigError, check_number, did_you_mean, field, from_mapping, load_yaml
-from batchveh.params import base_params, parameter_specs, variant_setup
-from batchveh.scenarios import Scenario, load_scenario, scenario_from_mapping
-from batchveh.soil import check_ground
-from batchveh.stats import StatsConfig, slip_limit
-from batchveh.vehicle import Vehicle, load_vehicle, vehicle_from_mapping
+from batchveh.model import course, missions
+from batchveh.model.params import base_params, parameter_specs, variant_setup
+from batchveh.model.scenarios import Scenario, load_scenario, scenario_from_mapping
+from batchveh.model.soil import check_ground
+from batchveh.model.vehicle import Vehicle, load_vehicle, vehicle_from_mapping
+from batchveh.stepping.stats import StatsConfig, slip_limit
 
 # numeric scenario fields that are neither swept nor fixed per sweep: they belong in the scenario
 SCENARIO_SETTINGS = tuple(
@@ -391,6 +391,6 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
 
 def spec_of_result(path: str | Path) -> SweepSpec:
     """The spec a result directory was made from (from its file metadata)."""
-    from batchveh.results import metadata
+    from batchveh.sweeping.results import metadata
 
     return spec_from_mapping(metadata(path)["spec"], f"{path} (metadata)")

@@ -1,7 +1,7 @@
 """One chunk of a sweep, from its rows of the variant table to its Parquet part table.
 
 `ChunkRunner` is what runs chunks, in the sweep's own process or in a Ray worker
-(`batchveh.cluster`): it builds the engine once, so each process compiles once, and
+(`batchveh.sweeping.cluster`): it builds the engine once, so each process compiles once, and
 `run(c)` turns chunk number `c` into the part's table, with units on the columns and
 the spec, versions, device and timings in the file metadata. It also says what the
 result folder's manifest records about it (`manifest`), which a resume must match.
@@ -18,12 +18,13 @@ import numpy as np
 import pandas as pd
 import pyarrow as pa
 
-from batchveh import course, stats
-from batchveh.batch import apply_solver, make_batch
 from batchveh.config import ConfigError
-from batchveh.params import parameter_specs
-from batchveh.results import part_table
-from batchveh.spec import SweepSpec, sampler_version
+from batchveh.model import course
+from batchveh.model.params import parameter_specs
+from batchveh.stepping import stats
+from batchveh.stepping.batch import apply_solver, make_batch
+from batchveh.sweeping.results import part_table
+from batchveh.sweeping.spec import SweepSpec, sampler_version
 
 TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match it
 
@@ -46,8 +47,8 @@ class ChunkRunner:
         workers: int = 1,
         nthread: int = 0,
     ):
-        from batchveh.batch import model_for
         from batchveh.engines import make_engine, resolve_backend
+        from batchveh.stepping.batch import model_for
 
         self.spec, self.n = spec, n
         self.backend = resolve_backend(backend)

@@ -66,8 +66,8 @@ N_MIN = 1e-6
 @dataclass(frozen=True)
 class Tyre:
     """How the ground pushes on the wheels: `rigid` (MuJoCo's frictional contact), `slip`
-    (a slip tyre on MuJoCo's frictionless contact; batchveh/tyres.py, validation/TYRES.md) or
-    `soil` (a rigid wheel in soft soil, `vehicle.soil`; batchveh/soil.py, validation/SOIL.md).
+    (a slip tyre on MuJoCo's frictionless contact; batchveh/model/tyres.py, validation/TYRES.md) or
+    `soil` (a rigid wheel in soft soil, `vehicle.soil`; batchveh/model/soil.py, validation/SOIL.md).
 
     The slip tyre's friction is the scenario's `friction`, and its rolling resistance is
     `wheel.rolling_resistance`, both acting on each wheel's own normal force."""

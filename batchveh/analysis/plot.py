@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 from scipy.ndimage import gaussian_filter1d
 
-from batchveh.vehicle import CORNERS
+from batchveh.model.vehicle import CORNERS
 
 CORNER_TITLES = {"lf": "Left-Front", "rf": "Right-Front", "lr": "Left-Rear", "rr": "Right-Rear"}
 SEED_DECIMATE, SEED_SIGMA = 10, 5.0
@@ -80,8 +80,8 @@ def label(name: str) -> str:
     """Axis label with unit for a parameter or result column."""
     if name in LABELS:
         return LABELS[name]
-    from batchveh.params import parameter_specs
-    from batchveh.results import column_doc
+    from batchveh.model.params import parameter_specs
+    from batchveh.sweeping.results import column_doc
 
     units = {k: spec.get("unit", "") for k, spec in parameter_specs().items()}
     unit = column_doc(name, units)[0]
@@ -198,8 +198,8 @@ def steering_envelope(
 
 def operating_points(df: pd.DataFrame, name: str, motor) -> plt.Figure:
     """Each variant's worst drive motor at the motor shaft (RMS and low-pass peak against
-    speed) over `motor`'s continuous torque and torque-speed limit (a batchveh.motors.Motor)."""
-    from batchveh.motors import check
+    speed) over `motor`'s continuous torque and torque-speed limit (a batchveh.analysis.motors.Motor)."""
+    from batchveh.analysis.motors import check
 
     c = check(df, motor)
     fig, ax = plt.subplots(figsize=(7, 4.5), constrained_layout=True)
@@ -218,7 +218,7 @@ def operating_points(df: pd.DataFrame, name: str, motor) -> plt.Figure:
 
 def mission_trace(series: pd.DataFrame, mission, group: str = "drive", title: str = "") -> plt.Figure:
     """A mission's motor torques against time (one run's series, batchveh.run.simulate), each
-    segment shaded and named (`mission`: batchveh.missions.Mission, e.g. missions.mission_of)."""
+    segment shaded and named (`mission`: batchveh.model.missions.Mission, e.g. missions.mission_of)."""
     fig, ax = plt.subplots(figsize=(10, 4.5), constrained_layout=True)
     t = series["time"].to_numpy()
     ends = [mission.start(k) for k in range(1, len(mission.segments))] + [t[-1]]
@@ -344,7 +344,7 @@ def sweep_figures(df: pd.DataFrame, name: str, out_dir: str | Path, swept: list[
     swept parameter; the slope x friction heatmap when both are swept; the steering
     envelope when a steering parameter is swept.
     """
-    from batchveh.params import parameter_specs
+    from batchveh.model.params import parameter_specs
 
     out_dir = Path(out_dir)
     if swept is None:

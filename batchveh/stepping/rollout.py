@@ -19,11 +19,12 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from batchveh import stats, tyres, wheels
-from batchveh.batch import import_mjx, servo_damping
-from batchveh.missions import body_forces_fn
-from batchveh.scenarios import Scenario, control_schedule, controls_fn
-from batchveh.vehicle import Layout, layout
+from batchveh.model import tyres, wheels
+from batchveh.model.missions import body_forces_fn
+from batchveh.model.scenarios import Scenario, control_schedule, controls_fn
+from batchveh.model.vehicle import Layout, layout
+from batchveh.stepping import stats
+from batchveh.stepping.batch import import_mjx, servo_damping
 
 mjx = import_mjx()
 

@@ -32,10 +32,10 @@ import mujoco
 import numpy as np
 
 from batchveh.config import ConfigError, did_you_mean
-from batchveh.vehicle import GROUND, ground_geom
+from batchveh.model.vehicle import GROUND, ground_geom
 
 if TYPE_CHECKING:
-    from batchveh.vehicle import Vehicle
+    from batchveh.model.vehicle import Vehicle
 
 OBSTACLES = ("none", "step", "bump", "pothole", "terrain")
 # the scenarios that drive along +X across an obstacle (a mission's turns are its user's choice: the

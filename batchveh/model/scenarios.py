@@ -30,9 +30,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from batchveh import course, laws
 from batchveh.config import ConfigError, did_you_mean, field, from_mapping, load_yaml
-from batchveh.vehicle import CORNER_SIGNS, CORNERS, MOTORS
+from batchveh.model import course, laws
+from batchveh.model.vehicle import CORNER_SIGNS, CORNERS, MOTORS
 
 GRAVITY_PRESETS = {"earth": 9.81, "moon": 1.62, "mars": 3.71}
 _SX = np.array([CORNER_SIGNS[c][0] for c in CORNERS], float)
@@ -62,7 +62,7 @@ class Scenario:
     steer_deg: float = field(45.0, unit="deg", ge=-90, le=90, doc="steering angle (steer_in_place, crab)")
     turn_radius: float = field(3.0, unit="m", doc="Ackermann turn radius; >0 turns left")
     yaw_rate_dps: float = field(20.0, unit="deg/s", doc="pivot yaw rate; >0 counter-clockwise")
-    # the ground across the path (batchveh.course): none, step, bump, pothole or terrain, and its shape
+    # the ground across the path (batchveh.model.course): none, step, bump, pothole or terrain, and its shape
     obstacle: str = "none"
     obstacle_x: float = field(0.3, unit="m", ge=0, le=100, doc="from the front wheels' contact to the obstacle")
     step_height: float = field(0.05, unit="m", gt=0, doc="step (curb) height")
@@ -76,7 +76,7 @@ class Scenario:
     drive_law: str = "smooth_step"  # steer_in_place keeps the seed's ramp (SCENARIOS)
     towing: tuple[bool, bool, bool, bool] = (False, False, False, False)
     laws: dict | None = None
-    # kind mission (batchveh.missions): the segments as read, and the torque thresholds in N m
+    # kind mission (batchveh.model.missions): the segments as read, and the torque thresholds in N m
     segments: list | None = None
     torque_threshold: dict | None = None
 
@@ -325,7 +325,7 @@ SCENARIOS: dict[str, Kind] = {
     "pivot": Kind(pivot, {"total_time": 8.0, "ramp_time": 2.0}),
     "steer_in_place_rolling": Kind(steer_in_place_rolling, {"total_time": 3.0}),
     "custom": Kind(custom, {}, check=_check_custom),
-}  # batchveh.missions registers "mission" (`register`); batchveh's __init__ imports it
+}  # batchveh.model.missions registers "mission" (`register`); batchveh's __init__ imports it
 
 
 def register(name: str, kind: Kind) -> None:

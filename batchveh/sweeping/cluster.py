@@ -36,8 +36,8 @@ from typing import TYPE_CHECKING, Any
 from batchveh.config import ConfigError
 
 if TYPE_CHECKING:
-    from batchveh.results import ResultFolder
-    from batchveh.spec import SweepSpec
+    from batchveh.sweeping.results import ResultFolder
+    from batchveh.sweeping.spec import SweepSpec
 
 MAX_ATTEMPTS = 3  # runs of one chunk before it is reported failed
 MAX_RESTARTS = 3  # restarts of one worker after its process died
@@ -53,8 +53,8 @@ class ChunkWorker:
     def __init__(
         self, spec: SweepSpec, backend: str, n: int, chunk_size: int | None, workers: int, nthread: int, out: str
     ):
-        from batchveh.chunks import ChunkRunner
-        from batchveh.results import ResultFolder
+        from batchveh.sweeping.chunks import ChunkRunner
+        from batchveh.sweeping.results import ResultFolder
 
         self.error = None
         try:

@@ -52,9 +52,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from batchveh import laws
 from batchveh.config import ConfigError, did_you_mean, field, from_mapping
-from batchveh.scenarios import (
+from batchveh.model import laws
+from batchveh.model.scenarios import (
     Kind,
     Scenario,
     ackermann_targets,

@@ -17,7 +17,7 @@ Checks per variant, on the worst of the four drive motors: the steady-window RMS
 against the continuous torque; the whole-run low-pass peak (`peak_lp_all`) against the
 torque limit at that speed; the wheel speed against the maximum speed.
 
-`check_mission` does the same against a mission's duty cycle (`batchveh.missions`): the RMS
+`check_mission` does the same against a mission's duty cycle (`batchveh.model.missions`): the RMS
 over the mission (or one segment) against the continuous torque, the mission's low-pass peak
 against the peak torque, reported at the wheel and at the motor shaft.
 """

@@ -30,8 +30,8 @@ import mujoco
 import numpy as np
 
 from batchveh.config import ConfigError, field, from_mapping, load_yaml
-from batchveh.soil import Soil
-from batchveh.tyres import Tyre
+from batchveh.model.soil import Soil
+from batchveh.model.tyres import Tyre
 
 CORNERS = ("lf", "rf", "lr", "rr")
 # (x sign, y sign) of each corner
@@ -152,9 +152,9 @@ class Vehicle:
     contacts: Literal["ground", "all"] = "ground"
     contact_model: ContactModel = ContactModel()
     # the wheel-ground model: 'slip' (a slip tyre on frictionless contacts) or 'rigid' (MuJoCo's
-    # frictional contact, contact_model above) or 'soil' (the soil below); batchveh/tyres.py
+    # frictional contact, contact_model above) or 'soil' (the soil below); batchveh/model/tyres.py
     tyre: Tyre = Tyre()
-    # the soft soil of `tyre.model: soil` (batchveh/soil.py): a published preset and its fields
+    # the soft soil of `tyre.model: soil` (batchveh/model/soil.py): a published preset and its fields
     soil: Soil = Soil()
 
     @property
@@ -252,7 +252,7 @@ def mjcf(
 ) -> str:
     """MJCF text of the vehicle on the ground.
 
-    `ground`: (assets, worldbody geoms) of the ground, MJCF (batchveh.course builds them from
+    `ground`: (assets, worldbody geoms) of the ground, MJCF (batchveh.model.course builds them from
     `ground_geom`); None: the flat plane. The ground geoms have priority 1, so the contact
     friction is the ground's `friction` whatever the wheels carry (MuJoCo otherwise takes the
     larger). With `v.contacts == "ground"`, wheels collide with the ground and nothing else.
@@ -382,8 +382,8 @@ class Layout:
     hub_bodies: np.ndarray  # (4,) in CORNERS order
     wheel_bodies: np.ndarray
     # the wheel-ground model the model was built for: 'rigid' (MuJoCo's contact), 'slip' (frictionless
-    # contacts: batchveh.tyres gives the tangential forces) or 'soil' (no wheel-ground contacts:
-    # batchveh.soil gives every force)
+    # contacts: batchveh.model.tyres gives the tangential forces) or 'soil' (no wheel-ground contacts:
+    # batchveh.model.soil gives every force)
     wheel_ground: str
 
     @property

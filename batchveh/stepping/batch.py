@@ -31,12 +31,12 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from batchveh import course
 from batchveh.config import ConfigError, did_you_mean
-from batchveh.params import GAINS, STATIC, base_params, parameter_specs, structural, variant_setup
-from batchveh.scenarios import Scenario, gravity_vector
-from batchveh.soil import check_ground
-from batchveh.vehicle import Vehicle, build_model, layout, rolling_resistance_torque
+from batchveh.model import course
+from batchveh.model.params import GAINS, STATIC, base_params, parameter_specs, structural, variant_setup
+from batchveh.model.scenarios import Scenario, gravity_vector
+from batchveh.model.soil import check_ground
+from batchveh.model.vehicle import Vehicle, build_model, layout, rolling_resistance_torque
 
 # MjModel fields that are only fast-path flags: 0 ("not the same frame") is always correct
 SAMEFRAME = ("body_sameframe", "geom_sameframe", "site_sameframe")

@@ -1,5 +1,5 @@
 """The wheel-ground models that batchveh applies itself, one entry point for every engine:
-`slip` (batchveh/tyres.py) and `soil` (batchveh/soil.py). `rigid` is MuJoCo's own contact and
+`slip` (batchveh/model/tyres.py) and `soil` (batchveh/model/soil.py). `rigid` is MuJoCo's own contact and
 needs nothing here.
 
 Each step, from the last forward pass's positions and contact forces and the velocities now:
@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from batchveh import soil, tyres
+from batchveh.model import soil, tyres
 
 
 def params(p: Mapping[str, Any], model: str, xp=np) -> dict[str, Any] | None:

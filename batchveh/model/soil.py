@@ -21,7 +21,7 @@ the soil surface, the plane z = 0) and its slip:
   theta_m moves forward (slip sinkage). A damper at half of critical (on a quarter of the
   vehicle's mass and the soil's stiffness dW/dz) stands in for the soil's plastic losses.
 
-The slip: as for the slip tyre (batchveh/tyres.py), a relaxed state u with relaxation length L
+The slip: as for the slip tyre (batchveh/model/tyres.py), a relaxed state u with relaxation length L
 gives the practical slips kappa = u_x / L (steady: (r omega - V) / |V|) and tan beta = u_y / L,
 with no 0/0 at standstill; s = kappa / (1 + kappa). Rolling engages (over SOIL_ENGAGE of travel,
 a Dahl-type state q) the two parts of the model that need a rolling wheel: the compaction
@@ -34,7 +34,7 @@ Left out (validation/SOIL.md): bulldozing at the wheel's front and sides, grouse
 (the rear wheels meet fresh soil, not the front wheels' ruts), soil memory (the soil under a
 wheel rises back along the loading curve when the wheel lifts), and obstacles or height fields
 (refused with soil). All functions take arrays of any leading shape and `xp` (numpy or
-jax.numpy), as batchveh/tyres.py.
+jax.numpy), as batchveh/model/tyres.py.
 """
 
 from __future__ import annotations
@@ -45,8 +45,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from batchveh import tyres
 from batchveh.config import ConfigError, field
+from batchveh.model import tyres
 
 # Gauss-Legendre points on each side of theta_m: 8 + 8 points are within 0.1% of an adaptive
 # quadrature of the same equations (validation/SOIL.md, tests/test_soil.py)
@@ -78,7 +78,7 @@ WONG_REECE = {"c1": 0.43, "c2": 0.32, "c3": 0.0}  # Wong and Reece (1967), used 
 
 @dataclass(frozen=True)
 class Soil:
-    """The soil under the wheels of `tyre.model: soil` (batchveh/soil.py, validation/SOIL.md).
+    """The soil under the wheels of `tyre.model: soil` (batchveh/model/soil.py, validation/SOIL.md).
 
     `preset` names a published soil (PRESETS); any field given beside it overrides it. All
     fields are sweepable as `soil.<name>`."""

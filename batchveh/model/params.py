@@ -23,9 +23,9 @@ import dataclasses
 from collections.abc import Mapping
 from typing import Any, Literal
 
-from batchveh import course
-from batchveh.scenarios import Scenario, numeric_fields
-from batchveh.vehicle import Vehicle, numeric_paths, replace_path
+from batchveh.model import course
+from batchveh.model.scenarios import Scenario, numeric_fields
+from batchveh.model.vehicle import Vehicle, numeric_paths, replace_path
 
 Acts = Literal["static", "model", "structure", "control"]
 

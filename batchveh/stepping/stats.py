@@ -33,9 +33,10 @@ from typing import Any
 
 import numpy as np
 
-from batchveh import mission_stats, soil
 from batchveh.config import ConfigError
-from batchveh.vehicle import CORNERS, MOTORS, Vehicle
+from batchveh.model import soil
+from batchveh.model.vehicle import CORNERS, MOTORS, Vehicle
+from batchveh.stepping import mission_stats
 
 CHANNELS = (*MOTORS, "drive_sum")  # 8 motors and the four-wheel drive-torque sum
 N_CH = len(CHANNELS)
