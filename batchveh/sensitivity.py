@@ -5,7 +5,7 @@
 
 The command line over `batchveh.analysis.sensitivity` (the estimators, the tidy table, its files
 and warnings; its docstring says how rows that are not ok are handled). `batchveh.sensitivity(
-result, ...)` calls that module's `sensitivity`, and its public names are importable from here.
+result, ...)` calls that module's `sensitivity`; import its other names from there.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from batchveh.sweeping.results import Locked
 
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS = 0, 2, 3
 
-__all__ = ["NON_OK", "SensitivityWarning", "main", "sensitivity", "summary", "write", "write_into_result"]
+__all__ = ["main"]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -128,10 +128,17 @@ def test_the_graph_sees_function_level_and_relative_imports(tmp_path):
 
 
 def test_each_folder_is_one_layer():
-    """The folders show the flow: every module of a subpackage sits in the layer named after it."""
-    layer = _layer_of()
-    names = list(LAYERS)
+    """The folders show the flow: each subpackage is named after a layer and holds exactly that layer's
+    modules, and the layers without a folder (base, face, cli) hold only top-level modules."""
+    layer, names = _layer_of(), list(LAYERS)
+    folders = {p.parent.name for p in PACKAGE.glob("*/__init__.py")}
+    strays = sorted(f for f in folders if f not in LAYERS)
+    assert not strays, f"folders that are not a layer: {strays}; name each after its layer in tests/test_imports.py"
     for module in _graph():
-        folder = module.split(".")[0] if "." in module or module in LAYERS else None
-        if folder in LAYERS:
-            assert names[layer[module]] == folder, f"{module} is in layer {names[layer[module]]}, not {folder}"
+        folder = module.split(".")[0] if module.split(".")[0] in folders else None
+        home = names[layer[module]] if module in layer else None
+        if folder is not None:
+            assert home == folder, f"{module} is in the folder {folder}/ but in the layer {home}"
+        else:
+            assert home not in folders, f"{module or '__init__'} is in the layer {home} but not in the folder {home}/"
+    assert all(m in _graph() for names_ in LAYERS.values() for m in names_), "LAYERS names a module that is gone"

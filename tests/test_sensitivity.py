@@ -23,7 +23,8 @@ from SALib.analyze import sobol as salib_sobol
 
 import batchveh
 from batchveh.analysis import plot
-from batchveh.sensitivity import SensitivityWarning, main, write
+from batchveh.analysis.sensitivity import SensitivityWarning, write
+from batchveh.sensitivity import main
 from batchveh.sweep import main as sweep_main
 from batchveh.sweep import run_sweep
 from batchveh.sweeping.results import ResultFolder
