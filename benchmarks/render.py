@@ -31,6 +31,7 @@ CURRENT = {
     "h200-process-profile.json": "Where a warm 100,000-variant sweep process spends its time, one H200",
     "h200-gpu-start.json": "JAX's GPU memory reserved at start or grown on demand, one H200",
     "cpu-2core-tyres-cpu-slope.json": "The main job on MuJoCo C with the slip tyre and the rigid contact, 2 cores",
+    "h200-soil.json": "The soil model on the warp engine against slip and rigid, one H200",
     "h200-ray-gpus-warp.json": "Ray against the in-process sweep, the warp engine, one H200",
     "h200x2-ray-gpus.json": "Ray against the in-process sweep, two H200",
     "cpu-2core-ray-gpus.json": "Ray against the in-process sweep, 2 cores",
@@ -340,6 +341,29 @@ def summary_section(d: dict, name: str, title: str) -> list[str]:
     return [*out, "", (f"Ratios: {ratios}. " if ratios else "") + f"(raw data: [{name}]({RAW}/{name}))", ""]
 
 
+def soil_section(d: dict, name: str) -> list[str]:
+    """benchmarks/soil.py: each wheel-ground model's best rate on one table, and float32 against C."""
+    out = [
+        f"### Wheel-ground models on the {d['backend']} engine, {d['size']:,} variants x {d['steps']:,} steps",
+        "",
+        "| model | best variant-steps/s | against rigid |",
+        "| --- | ---: | ---: |",
+    ]
+    best = d["best_rate"]
+    out += [f"| {m} | {r:.3g} | {r / best['rigid']:.2f} |" for m, r in best.items()]
+    acc = "; ".join(
+        f"{k}: {v['variants']} variants, median {v['median']:.2g}, p99 {v['p99']:.2g}"
+        for k, v in d["accuracy"].items()
+        if "p99" in v
+    )
+    return [
+        *out,
+        "",
+        f"Soil, float32 against C float64, per-wheel drive means: {acc}. (raw data: [{name}]({RAW}/{name}))",
+        "",
+    ]
+
+
 def render_files(files: list[Path]) -> list[str]:
     """The tables of `files`, each file by its kind (from its name)."""
     out: list[str] = []
@@ -368,6 +392,8 @@ def render_files(files: list[Path]) -> list[str]:
             out += largest_section(d, f.name)
         elif k == "ray-gpus":
             out += [ray_section(d, f.name), ""]
+        elif k == "soil":
+            out += soil_section(d, f.name)
         else:
             out += bench_section(d, f.name)
     stages = [f for f in files if kind[f] == "stages"]
@@ -390,6 +416,7 @@ def render_files(files: list[Path]) -> list[str]:
 
 
 KINDS = (
+    "soil",
     "process-profile",
     "gpu-start",
     "tyres-cpu",
