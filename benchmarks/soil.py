@@ -121,7 +121,7 @@ def main(argv=None) -> None:
                 else {}
             ),
         }
-        print(f"warp f32 against C f64, {name}: {accuracy[name]}")
+        print(f"{args.backend} f32 against C f64, {name}: {accuracy[name]}")
     result = {
         "what": "the soil wheel-ground model on the warp engine against rigid and slip; float32 accuracy against C",
         "device": str(jax.devices()[0]),
