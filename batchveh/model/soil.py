@@ -142,11 +142,14 @@ def params(p: Mapping[str, Any], xp=np) -> dict[str, Any]:
     }
 
 
+# Gauss-Legendre nodes and weights on [-1, 1], once: the MuJoCo C path calls _nodes every step
+_GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(QUADRATURE_POINTS)
+
+
 def _nodes(a, b, xp):
     """Gauss-Legendre nodes and weights on [a, b] (arrays (...,)), as (..., Q)."""
-    x, w = np.polynomial.legendre.leggauss(QUADRATURE_POINTS)
     half = ((b - a) / 2)[..., None]
-    return (a[..., None] + half * (xp.asarray(x) + 1.0)), half * xp.asarray(w)
+    return (a[..., None] + half * (xp.asarray(_GAUSS_X) + 1.0)), half * xp.asarray(_GAUSS_W)
 
 
 def stresses(theta, theta1, theta_r, theta_m, sp: Mapping[str, Any], xp=np):
@@ -216,18 +219,12 @@ def compaction_resistance(z0, sp: Mapping[str, Any]):
     return sp["k"] * sp["width"] * z0 ** (n + 1.0) / (n + 1.0)
 
 
-def init_state(shape: tuple[int, ...], xp=np, dtype=None):
-    """The soil model's state of `shape` variants at rest, (*shape, 4, tyres.NSTATE): u_x, u_y
-    (m), the spin bristle phi (rad) and the rolling engagement q (-1..1)."""
-    return tyres.init_state(shape, xp, dtype)
-
-
 def step(state, kin: Mapping[str, Any], sp: Mapping[str, Any], dt, xp=np):
     """Advance the soil state one step and give the wrench on each wheel body.
 
-    state (..., 4, NSTATE); kin from `tyres.kinematics`; sp from `params`. Returns (new state,
-    wrench (..., 4, 6), world force and torque at the wheel centre, and a dict of diagnostics:
-    sinkage, W, DP, T, F_y, slip ratio s)."""
+    state (..., 4, tyres.NSTATE), from `wheels.init_state`; kin from `tyres.kinematics`; sp from
+    `params`. Returns (new state, wrench (..., 4, 6), world force and torque at the wheel centre,
+    and a dict of diagnostics: sinkage, W, DP, T, F_y, slip ratio s)."""
     c, axle = kin["c"], kin["axle"]
     up = xp.zeros_like(c) + xp.asarray([0.0, 0.0, 1.0], dtype=c.dtype)
     e_x = tyres.unit(xp.cross(axle, up), xp)
