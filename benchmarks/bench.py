@@ -475,7 +475,6 @@ def main():
     import mujoco
 
     from batchveh.engines.mujoco import cpus
-    from batchveh.model.vehicle import Vehicle
 
     spec, _ = slope_table(1)
     n_steps = spec.scenario.n_steps
@@ -494,8 +493,10 @@ def main():
         "steps": n_steps,
         "time_step": spec.scenario.time_step,
         "wheel_collision": args.wheel_collision,
-        "contact": args.contact
-        or "vehicle default ({0.cone}/{0.impratio:g}/{0.impedance:g})".format(Vehicle().contact_model),
+        # the contact the rows ran, read from the vehicle they were built on (not from a default)
+        "contact": "{0.cone}/{0.impratio:g}/{0.impedance:g} ({1})".format(
+            spec.vehicle.contact_model, f"--contact {args.contact}" if args.contact else "the vehicle's default"
+        ),
         "tyres": args.tyres,
         "peer_tyre": args.tyres[0],
     }
