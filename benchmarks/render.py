@@ -18,8 +18,10 @@ RAW = "../benchmarks/results"  # the result files, as seen from docs/
 CURRENT = {
     "h200-tyres.json": "The warp engine, slip tyre and rigid contact side by side",
     "h200-tyres-mjx.json": "MJX's JAX implementation on a GPU, slip tyre and rigid contact",
-    "h200-warp-soft.json": "The warp engine, rigid contact (elliptic, impratio 100, impedance 0.25)",
-    "h200-warp-impedance09.json": "The warp engine, contact impedance 0.9",
+    "h200-warp-soft.json": "The warp engine, rigid contact (elliptic, impratio 100, impedance 0.25), "
+    "the run beside the impratio-10 / impedance-0.9 one (h200-tyres.json is the newer rigid run)",
+    "h200-warp-impedance09.json": "The warp engine, rigid contact with impratio 10 and impedance 0.9 "
+    "(two settings changed from the default's 100 and 0.25)",
     "h200-warp-pyramidal1.json": "The warp engine, the fast contact preset",
     "h200-warp-courses-warm.json": "Obstacles on the warp engine, warmed up",
     "h200-warp-courses-cold.json": "Obstacles on the warp engine, first launch on a fresh machine",
@@ -27,6 +29,7 @@ CURRENT = {
     "h200-warp-largest.json": "The largest warp batch",
     "cpu-2core-overhead.json": "batchveh mujoco against raw mujoco.batch on 2 cores",
     "h200-end-to-end-slope_100k.json": "End to end on one H200, fresh machine",
+    "h200-end-to-end-slope_100k-layout.json": "End to end on another H200, fresh machine, after the layout change",
     "cpu-2core-end-to-end-slope_100k.json": "End to end on 2 CPU cores",
     "h200-process-profile.json": "Where a warm 100,000-variant sweep process spends its time, one H200",
     "h200-gpu-start.json": "JAX's GPU memory reserved at start or grown on demand, one H200",
@@ -43,7 +46,21 @@ FILE_NOTES = {
     "h200-warp-soft.json": "Its contact label reads elliptic/10: bench.py then labelled the vehicle's default from a "
     "stale constant. The default it ran was elliptic, impratio 100, impedance 0.25; the impedance-0.9 run beside it "
     "names its contact from --contact.",
+    "h200-warp-impedance09.json": "Its contact, elliptic/10/0.9, changes two settings from the default "
+    "(impratio 100, impedance 0.25), so its difference from the default is not the impedance's alone.",
 }
+FILE_NOTES["cpu-2core-overhead.json"] = (
+    "Contact: MuJoCo's pyramidal cone, impratio 1, the default of the code it ran (391ac0d), no tyre; the file "
+    "does not record it. Today's default models (the slip tyre; the rigid contact's elliptic cone, impratio 100) "
+    "are not measured this way: on this machine the raw peer ran 8.1e4-8.9e4 variant-steps/s on the elliptic cone "
+    "(impratio 10) against 1.33e5-1.55e5 on the pyramidal one (`cpu-2core-contact-cost.json`)."
+)
+# the machine, where a file does not record it (these ran on the lent nvidia-h200 kind)
+NO_GPU_NAME = "Machine: one H200 (nvidia-h200 kind; the file records no GPU name and no date)."
+for _name in ("h200-soil.json", "h200-soil-mjx.json", "h200-soil-unforwarded.json", "h200-gpu-start.json"):
+    FILE_NOTES[_name] = NO_GPU_NAME
+for _name in ("h200-process-profile.json", "h200-process-profile-before.json"):
+    FILE_NOTES[_name] = "Machine: one H200 (named only in the sweep's printed line; the file records no date)."
 ERR_KEYS = ("noslip_sum_mean", "noslip_wheel_mean", "noslip_wheel_peak", "noslip_wheel_peak_lp")
 
 
@@ -396,6 +413,9 @@ def render_files(files: list[Path]) -> list[str]:
             out += soil_section(d, f.name)
         else:
             out += bench_section(d, f.name)
+            continue  # bench_section adds the file's note itself
+        if f.name in FILE_NOTES:
+            out += [FILE_NOTES[f.name], ""]
     stages = [f for f in files if kind[f] == "stages"]
     out += stages_section(stages) if stages else []
     scaling = [f for f in files if kind[f] == "scaling"]
