@@ -148,8 +148,9 @@ _GAUSS_X, _GAUSS_W = np.polynomial.legendre.leggauss(QUADRATURE_POINTS)
 
 def _nodes(a, b, xp):
     """Gauss-Legendre nodes and weights on [a, b] (arrays (...,)), as (..., Q)."""
-    half = ((b - a) / 2)[..., None]
-    return (a[..., None] + half * (xp.asarray(_GAUSS_X) + 1.0)), half * xp.asarray(_GAUSS_W)
+    half = ((b - a) / 2)[..., None]  # the nodes in the arrays' precision (JAX keeps float64 constants apart)
+    x, w = xp.asarray(_GAUSS_X, dtype=half.dtype), xp.asarray(_GAUSS_W, dtype=half.dtype)
+    return a[..., None] + half * (x + 1.0), half * w
 
 
 def stresses(theta, theta1, theta_r, theta_m, sp: Mapping[str, Any], xp=np):
