@@ -77,8 +77,12 @@ def profile_sweep(spec, n, out, chunk=None):
 
         return wrapper
 
+    from batchveh.stepping.rollout import MujocoTyre
+
     saved = [
         (Batch, "rollout", Batch.rollout),
+        (Batch, "step", Batch.step),
+        (MujocoTyre, "wrench", MujocoTyre.wrench),
         (stats, "update", stats.update),
         (stats, "sample", stats.sample),
         (stats, "finalize", stats.finalize),
@@ -94,6 +98,8 @@ def profile_sweep(spec, n, out, chunk=None):
         self._ctrl = timed("controls (worker CPU)", self._ctrl, time.thread_time)
 
     Batch.rollout = timed("Batch.rollout (main thread, wall)", Batch.rollout)
+    Batch.step = timed("Batch.step (main thread, wall; the slip tyre and soil step one at a time)", Batch.step)
+    MujocoTyre.wrench = timed("wheel-ground step (main thread, wall)", MujocoTyre.wrench)
     stats.update = timed("stats.update (worker CPU)", stats.update, time.thread_time)
     stats.sample = timed("stats.sample (worker CPU)", stats.sample, time.thread_time)
     stats.finalize = timed("stats.finalize (main thread)", stats.finalize)
@@ -111,9 +117,8 @@ def profile_sweep(spec, n, out, chunk=None):
     vsteps = n * spec.scenario.n_steps
     acc["sweep wall_s"] = s["wall_s"]
     acc["process CPU s"] = cpu
-    acc["engine.run outside rollout (wall: setup, waits, tail fold)"] = (
-        acc["engine.run (wall)"] - acc["Batch.rollout (main thread, wall)"]
-    )
+    stepping = sum(v for k, v in acc.items() if k.startswith(("Batch.", "wheel-ground")))
+    acc["engine.run outside stepping (wall: setup, recording, waits, tail fold)"] = acc["engine.run (wall)"] - stepping
     return {k: {"s": v, "ns_per_variant_step": v / vsteps * 1e9} for k, v in acc.items()}
 
 

@@ -27,7 +27,10 @@ CURRENT = {
     "h200-warp-courses-cold.json": "Obstacles on the warp engine, first launch on a fresh machine",
     "cpu-tiny-courses.json": "Obstacles on MuJoCo C, 16 variants on 2 cores",
     "h200-warp-largest.json": "The largest warp batch",
-    "cpu-2core-overhead.json": "batchveh mujoco against raw mujoco.batch on 2 cores",
+    "cpu-2core-overhead-slip.json": "batchveh mujoco with the slip tyre against raw mujoco.batch on the same "
+    "frictionless model without a tyre, 2 cores",
+    "cpu-2core-wheel-ground-step.json": "The slip tyre's and the soil's step between MuJoCo C's steps, numpy and XLA",
+    "cpu-2core-overhead.json": "batchveh mujoco against raw mujoco.batch on 2 cores (pyramidal contact, no tyre)",
     "h200-end-to-end-slope_100k.json": "End to end on one H200, fresh machine",
     "h200-end-to-end-slope_100k-layout.json": "End to end on another H200, fresh machine, after the layout change",
     "cpu-2core-end-to-end-slope_100k.json": "End to end on 2 CPU cores",
@@ -381,6 +384,24 @@ def soil_section(d: dict, name: str) -> list[str]:
     ]
 
 
+def wheel_ground_section(d: dict, name: str) -> list[str]:
+    """benchmarks/cpu_wheel_ground.py: MuJoCo C's step against the wheel-ground step, numpy and XLA."""
+    out = [
+        f"### The wheel-ground models' step on MuJoCo C: {d['machine']}",
+        "",
+        f"Command: `{d['command']}`, {d['date']}",
+        "",
+        "| model | variants | Batch.step ms | numpy ms | XLA float64 ms | numpy / XLA | largest wrench difference, N |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    out += [
+        f"| {r['model']} | {r['variants']:,} | {r['batch_step_ms']:.2f} | {r['numpy_ms']:.2f} | {r['xla_ms']:.2f} "
+        f"| {r['numpy_over_xla']:.2f} | {r['max_abs_wrench_difference']:.1e} of {r['max_abs_wrench']:.0f} |"
+        for r in d["rows"]
+    ]
+    return [*out, "", f"(raw data: [{name}]({RAW}/{name}))", ""]
+
+
 def render_files(files: list[Path]) -> list[str]:
     """The tables of `files`, each file by its kind (from its name)."""
     out: list[str] = []
@@ -411,6 +432,8 @@ def render_files(files: list[Path]) -> list[str]:
             out += [ray_section(d, f.name), ""]
         elif k == "soil":
             out += soil_section(d, f.name)
+        elif k == "wheel-ground":
+            out += wheel_ground_section(d, f.name)
         else:
             out += bench_section(d, f.name)
             continue  # bench_section adds the file's note itself
@@ -436,6 +459,7 @@ def render_files(files: list[Path]) -> list[str]:
 
 
 KINDS = (
+    "wheel-ground",
     "soil",
     "process-profile",
     "gpu-start",
