@@ -34,12 +34,15 @@ if TYPE_CHECKING:
 
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_PARTIAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
 
-# Rough rates in variant-steps/s for the dry run's estimate, with an elliptic contact (docs/performance.md):
-# MuJoCo C 7.8e4 on 2 threads (the main job on a fresh clone); MJX on the CPU 1.0e4 on 2 cores; the warp
+# Rough rates in variant-steps/s for the dry run's estimate (docs/performance.md). MuJoCo C per thread, the
+# main job on 2 threads (benchmarks/results/cpu-2core-tyres-cpu-slope.json): slip 1.43e5, rigid 1.0e5; the
+# soil's step costs about the slip tyre's (cpu-2core-wheel-ground-step.json: 11.1 against 11.4 ms per step at
+# 2,048 variants, MuJoCo's step included). With an elliptic contact: MJX on the CPU 1.0e4 on 2 cores; the warp
 # engine 4.5e3 on 2 CPU cores (256 variants); on one H200, MJX (JAX implementation) 1.4e6 and the warp
 # engine 6.74e6 with the rigid contact (benchmarks/results/h200-warp-soft.json); with the slip tyre
 # (the default) MJX 2.87e6 (8,192 variants) and the warp engine 1.73e7 (benchmarks/results/h200-tyres*.json)
-RATE_PER_CPU = {"mujoco": 3.9e4, "mjx": 5.0e3, "warp": 2.2e3}  # per MuJoCo thread or CPU core
+MUJOCO_RATE_PER_THREAD = {"rigid": 5.0e4, "slip": 7.1e4, "soil": 7.1e4}
+RATE_PER_CPU = {"mjx": 5.0e3, "warp": 2.2e3}  # per CPU core
 # the soil model: the warp engine 1.14e7 and 1.43e7 on two H200 (benchmarks/results/h200-soil*.json), the lower
 # taken; MJX 7.9e5 at 8,192 variants (h200-soil-mjx.json, whose slip row read 4.3e5, not the 2.87e6 above: not
 # explained yet)
@@ -258,7 +261,7 @@ def estimate(backend: str, variant_steps: int, tyre: str = "slip") -> tuple[floa
         from batchveh.engines.mujoco import default_threads
 
         threads = default_threads()
-        rate, where, compile_s = RATE_PER_CPU["mujoco"] * threads, f"{threads} CPU threads", COMPILE_S["mujoco"]
+        rate, where, compile_s = MUJOCO_RATE_PER_THREAD[tyre] * threads, f"{threads} CPU threads", COMPILE_S["mujoco"]
     elif has_gpu():
         import jax
 
