@@ -269,3 +269,40 @@ def test_mean_patch_radius_is_the_rectangles_mean_distance(half_length, half_wid
     a, w = half_length, half_width
     integral, _ = dblquad(lambda y, x: np.hypot(x, y), 0, a, 0, w, epsabs=1e-14, epsrel=1e-10)
     assert tyres.mean_patch_radius(a, w) == pytest.approx(integral / (a * w), rel=1e-6)
+
+
+@pytest.mark.parametrize("model", ["slip", "soil"])
+def test_mujoco_c_wheel_ground_step_is_the_numpy_array_code_in_float64(model):
+    """MuJoCo C's engine runs `wheels.step` compiled by XLA (rollout.MujocoTyre); the same step in numpy on
+    the same MuJoCo data and state must give the same wrenches and state, in float64 (a float32 slip would
+    show as 1e-7 of the force; measured 6e-30 N, benchmarks/results/cpu-2core-wheel-ground-step.json)."""
+    from mujoco.batch import Batch
+
+    from batchveh.model import wheels
+    from batchveh.stepping.rollout import MujocoTyre
+
+    n = 8
+    sc = make_scenario("straight_line", total_time=1.0, ramp_time=0.5, speed_kmh=2.0, slope_deg=5.0, friction=0.8)
+    batch = make_batch(Vehicle(tyre=Tyre(model=model)), sc, {"slope_deg": np.linspace(0.0, 15.0, n)})
+    m, lay = batch.model, layout(batch.model)
+    b = Batch(m, nsim=n, nthread=1)
+    b.bind("ctrl")[:] = 1.0  # the drives turn: slip, spin and the rolling parts all act
+    xla = MujocoTyre(m, lay, batch.params)
+    tp = wheels.params({k: np.asarray(v, np.float64) for k, v in batch.params.items()}, lay.wheel_ground, np)
+    nbody, dt = m.nbody, float(m.opt.timestep)
+    x = [b.bind(k) for k in ("xpos", "xmat", "qvel", "cfrc_ext", "xfrc_applied")]
+    for _ in range(40):
+        args = (x[0], x[1].reshape(n, nbody, 3, 3), *x[2:])
+        state = np.asarray(xla.state)
+        want_state, w, _ = wheels.step(state, *args, tp, lay, dt, np)
+        want = tyres.wheel_wrench_xfrc(w, nbody, lay, np)
+        got = xla.wrench(*args)
+        assert got.dtype == np.float64 and np.asarray(xla.state).dtype == np.float64
+        scale = max(np.abs(want).max(), 1.0)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-10 * scale)
+        np.testing.assert_allclose(
+            np.asarray(xla.state), want_state, rtol=0, atol=1e-10 * max(np.abs(want_state).max(), 1e-3)
+        )
+        x[4][:] = got
+        b.step()
+    assert np.abs(got[:, lay.wheel_bodies, :3]).max() > 1.0  # forces acted: the check compared something
