@@ -57,6 +57,9 @@ COURSE_WIDTH = 4.0  # m along Y, centred on the path
 # direction is 0.67 0 -0.74: the wheel met a curb as a wall); on a capsule along the edge the normal is
 # the edge-to-axis direction on every engine (validation/OBSTACLES.md)
 EDGE_RADIUS = 0.01  # m, at most half the box's height
+# m: a front wheel this close to touching a step's riser has reached it (a wheel the step holds back is
+# `stuck`, not `short`); the contact's own sinkage is a few mm
+TOUCH = 0.01
 TERRAIN_LENGTH = 3.0  # m along X
 TERRAIN_WIDTH = 1.6  # m along Y: both wheel tracks of the seed's vehicle (+-0.445 m) with room to drift
 TERRAIN_MARGIN = 0.2  # m: a wheel's outer edge stays this far inside the height field's side
@@ -212,12 +215,17 @@ def _ground(v: Vehicle, sc: Ground) -> tuple[str, str]:
         """A box across the path, its top edges at `rounded` ('lo', 'hi' along X) rounded off by
         edge_radius: a box below the rounding, a box between the roundings and a capsule at each."""
         rho = min(EDGE_RADIUS, (z_hi - z_lo) / 2)
-        top_lo, top_hi = x_lo + rho * ("lo" in rounded), x_hi - rho * ("hi" in rounded)
+        # the top box starts one radius behind the capsule's axis: a corner on the capsule's top line met a
+        # wheel sunk into the soft contact, and its contacts (face normal, horizontal, or the corner's) flipped
+        # from step to step (validation/OBSTACLES.md). The notch left behind the capsule, rho wide and deep,
+        # sags a 0.195 m wheel by 64 um
+        top_lo, top_hi = x_lo + 2 * rho * ("lo" in rounded), x_hi - 2 * rho * ("hi" in rounded)
+        edge_lo, edge_hi = x_lo + rho, x_hi - rho
         out = ""
         for part, (a, b, c, d) in (("", (x_lo, x_hi, z_lo, z_hi - rho)), ("_top", (top_lo, top_hi, z_hi - rho, z_hi))):
             size, pos = _fmt((b - a) / 2, half_w, (d - c) / 2), _fmt((a + b) / 2, 0, (c + d) / 2)
             out += geom(f"{PREFIX}{name}{part}", f'type="box" size="{size}" pos="{pos}"')
-        for side, x in (("lo", top_lo), ("hi", top_hi)):
+        for side, x in (("lo", edge_lo), ("hi", edge_hi)):
             if side in rounded:
                 shape = f'type="capsule" size="{_fmt(rho, half_w)}" zaxis="0 1 0" pos="{_fmt(x, 0, z_hi - rho)}"'
                 out += geom(f"{PREFIX}{name}_edge_{side}", shape)
@@ -315,14 +323,19 @@ def flag(cols: dict[str, Any], p: Mapping[str, Any], obstacle: str) -> dict[str,
     where they never did (total_time too short for the distance, or a run that stood or turned away):
     its statistics say nothing about the obstacle.
 
-    Reached: the front wheels' centres ended past the near edge; cleared: the rear wheels' centres
-    ended past the far edge; from the variant's own wheel.x_cg, chassis.x_cg and obstacle (the
-    chassis starts at x = chassis.x_cg, the wheels at +-wheel.x_cg; yaw is ignored: the obstacle lies
-    across +X). Give total_time long enough to cross it."""
+    Reached: the front wheels' centres ended past the near edge, or, at a step, within TOUCH of
+    touching its riser (a wheel of radius r held by a step of height h stops sqrt(2 r h - h^2) short
+    of it); cleared: the rear wheels' centres ended past the far edge; from the variant's own
+    wheel.x_cg, chassis.x_cg and obstacle (the chassis starts at x = chassis.x_cg, the wheels at
+    +-wheel.x_cg; yaw is ignored: the obstacle lies across +X). Give total_time long enough to cross it."""
     if obstacle == "none":
         return cols
     travel = np.asarray(cols["final_x"]) - np.asarray(p["chassis.x_cg"])
-    reached = np.asarray(p["wheel.x_cg"]) + travel > near_edge(p)
+    reach = 0.0
+    if obstacle == "step":
+        r, h = np.asarray(p["wheel.radius"]), np.minimum(np.asarray(p["step_height"]), np.asarray(p["wheel.radius"]))
+        reach = np.sqrt(np.maximum(2 * r * h - h * h, 0.0)) + TOUCH
+    reached = np.asarray(p["wheel.x_cg"]) + travel + reach > near_edge(p)
     cleared = -np.asarray(p["wheel.x_cg"]) + travel > far_edge(p, obstacle)
     out = dict(cols)
     out["reached"], out["cleared"] = reached, cleared
