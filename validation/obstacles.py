@@ -76,6 +76,7 @@ def limit_table() -> list[dict]:
     cols = run({"step_height": hh.ravel(), "friction": mm.ravel()}, speed_kmh=0.5, total_time=14.0)
     climbs = ((cols["status_code"] == 0) & ~cols["slipping"]).reshape(hh.shape)
     stuck = (cols["status_code"] == 3).reshape(hh.shape)
+    cleared_slipping = ((cols["status_code"] == 0) & cols["slipping"]).reshape(hh.shape)
     rows = []
     for i, mu in enumerate(LIMIT_FRICTIONS):
         h = np.array(LIMIT_HEIGHTS)
@@ -84,7 +85,7 @@ def limit_table() -> list[dict]:
                 "friction": mu,
                 "highest_climbed": float(h[climbs[i]].max()) if climbs[i].any() else None,
                 "lowest_stuck": float(h[stuck[i]].min()) if stuck[i].any() else None,
-                "slipping_but_cleared": [float(x) for x in h[~climbs[i] & ~stuck[i]]],
+                "slipping_but_cleared": [float(x) for x in h[cleared_slipping[i]]],
             }
         )
     return rows

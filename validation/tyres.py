@@ -58,7 +58,7 @@ def step_energy(model):
 
 def climb_limit(model, frictions=(0.3, 0.5, 0.7, 0.9, 1.2)):
     heights = np.round(np.arange(0.02, 0.19, 0.01), 3)
-    sc = make_scenario("straight_line", total_time=10.0, ramp_time=1.0, speed_kmh=0.5, obstacle="step", obstacle_x=0.2)
+    sc = make_scenario("straight_line", total_time=14.0, ramp_time=1.0, speed_kmh=0.5, obstacle="step", obstacle_x=0.2)
     mu = np.repeat(frictions, len(heights))
     h = np.tile(heights, len(frictions))
     cols = _run(MODELS[model], sc, {"friction": mu, "step_height": h})
