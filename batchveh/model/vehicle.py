@@ -37,6 +37,7 @@ CORNERS = ("lf", "rf", "lr", "rr")
 # (x sign, y sign) of each corner
 CORNER_SIGNS = {"lf": (1, 1), "rf": (1, -1), "lr": (-1, 1), "rr": (-1, -1)}
 MOTORS = tuple(f"drive_{c}" for c in CORNERS) + tuple(f"steer_{c}" for c in CORNERS)
+CHANNELS = (*MOTORS, "drive_sum")  # the torques the statistics reduce: 8 motors and the four-wheel drive sum
 GROUND = "ground"
 
 

@@ -30,9 +30,8 @@ from typing import Any
 import numpy as np
 
 from batchveh.model import missions
-from batchveh.model.vehicle import MOTORS
+from batchveh.model.vehicle import CHANNELS, MOTORS
 
-CHANNELS = (*MOTORS, "drive_sum")  # as stats.CHANNELS
 TORQUE_STATS = {
     "rms": ("N m", "RMS torque"),
     "peak": ("N m", "peak |torque|"),

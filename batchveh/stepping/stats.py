@@ -35,10 +35,9 @@ import numpy as np
 
 from batchveh.config import ConfigError
 from batchveh.model import soil
-from batchveh.model.vehicle import CORNERS, MOTORS, Vehicle
+from batchveh.model.vehicle import CHANNELS, CORNERS, Vehicle
 from batchveh.stepping import mission_stats
 
-CHANNELS = (*MOTORS, "drive_sum")  # 8 motors and the four-wheel drive-torque sum
 N_CH = len(CHANNELS)
 STATUS = {0: "ok", 1: "diverged", 2: "flipped", 3: "stuck", 4: "short"}  # stuck, short: set by course.flag
 FLIP_DEG = 60.0  # roll or pitch beyond which the vehicle counts as flipped
