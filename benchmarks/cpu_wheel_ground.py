@@ -26,7 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from cpu_overhead import cpu_model  # noqa: E402
 from mujoco.batch import Batch  # noqa: E402
 
-from batchveh.model import tyres, wheels  # noqa: E402
+from batchveh.model import wheels  # noqa: E402
 from batchveh.model.scenarios import make_scenario  # noqa: E402
 from batchveh.model.tyres import Tyre  # noqa: E402
 from batchveh.model.vehicle import Vehicle  # noqa: E402
@@ -59,8 +59,7 @@ def row(model: str, n: int, steps: int) -> dict:
     dt = float(m.opt.timestep)
 
     def numpy_wrench():
-        _, w, _ = wheels.step(state0, *args, tp, lay, dt, np)
-        return tyres.wheel_wrench_xfrc(w, m.nbody, lay, np)
+        return wheels.step_xfrc(state0, *args, tp, lay, dt, m.nbody, np)[1]
 
     def xla_wrench():
         xla.state = state0

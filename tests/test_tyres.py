@@ -294,8 +294,7 @@ def test_mujoco_c_wheel_ground_step_is_the_numpy_array_code_in_float64(model):
     for _ in range(40):
         args = (x[0], x[1].reshape(n, nbody, 3, 3), *x[2:])
         state = np.asarray(xla.state)
-        want_state, w, _ = wheels.step(state, *args, tp, lay, dt, np)
-        want = tyres.wheel_wrench_xfrc(w, nbody, lay, np)
+        want_state, want = wheels.step_xfrc(state, *args, tp, lay, dt, nbody, np)
         got = xla.wrench(*args)
         assert got.dtype == np.float64 and np.asarray(xla.state).dtype == np.float64
         scale = max(np.abs(want).max(), 1.0)

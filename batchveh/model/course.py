@@ -102,6 +102,14 @@ def check_obstacle(kind: Any, where: str) -> None:
         )
 
 
+def step_reach(p: Mapping[str, Any]) -> Any:
+    """How far ahead of its contact point a wheel of radius r meets a step of height h, m: sqrt(2 r h - h^2)
+    (h taken at most r)."""
+    r = np.asarray(p["wheel.radius"], float)
+    h = np.minimum(p["step_height"], r)
+    return np.sqrt(2 * r * h - h * h)
+
+
 def rules(p: Mapping[str, Any], obstacle: str) -> list[tuple[str, Any, Any, str]]:
     """(key, value, bound, rule) for each rule of the obstacle; rule '<' or '<=': the value must stay
     below the bound, '>=': at or above it. A step must be lower than the wheel radius (the wheel meets
@@ -110,11 +118,7 @@ def rules(p: Mapping[str, Any], obstacle: str) -> list[tuple[str, Any, Any, str]
     sqrt(2 r h - h^2) ahead of its contact point at height h."""
     r = np.asarray(p["wheel.radius"], float)
     if obstacle == "step":
-        h = np.minimum(p["step_height"], r)
-        return [
-            ("step_height", p["step_height"], r, "<"),
-            ("obstacle_x", p["obstacle_x"], np.sqrt(2 * r * h - h * h), ">="),
-        ]
+        return [("step_height", p["step_height"], r, "<"), ("obstacle_x", p["obstacle_x"], step_reach(p), ">=")]
     if obstacle == "bump":
         h, half = np.asarray(p["bump_height"], float), np.asarray(p["bump_length"], float) / 2
         radius = (h * h + half * half) / (2 * h)  # the bump's circle; its centre is radius - h below ground
@@ -331,10 +335,7 @@ def flag(cols: dict[str, Any], p: Mapping[str, Any], obstacle: str) -> dict[str,
     if obstacle == "none":
         return cols
     travel = np.asarray(cols["final_x"]) - np.asarray(p["chassis.x_cg"])
-    reach = 0.0
-    if obstacle == "step":
-        r, h = np.asarray(p["wheel.radius"]), np.minimum(np.asarray(p["step_height"]), np.asarray(p["wheel.radius"]))
-        reach = np.sqrt(np.maximum(2 * r * h - h * h, 0.0)) + TOUCH
+    reach = step_reach(p) + TOUCH if obstacle == "step" else 0.0
     reached = np.asarray(p["wheel.x_cg"]) + travel + reach > near_edge(p)
     cleared = -np.asarray(p["wheel.x_cg"]) + travel > far_edge(p, obstacle)
     out = dict(cols)

@@ -37,3 +37,10 @@ def step(state, xpos, xmat, qvel, cfrc_ext, xfrc_applied, wp: Mapping[str, Any],
     if lay.wheel_ground == "soil":
         return soil.step(state, kin, wp, dt, xp)
     return tyres.step(state, kin, tyres.contact_force(cfrc_ext, xfrc_applied, lay), wp, dt, xp)
+
+
+def step_xfrc(state, xpos, xmat, qvel, cfrc_ext, xfrc_applied, wp: Mapping[str, Any], lay, dt, nbody: int, xp=np):
+    """`step`'s next state and its wrenches as xfrc_applied (..., nbody, 6): what MuJoCo C's engine applies
+    between its steps."""
+    state, wrench, _ = step(state, xpos, xmat, qvel, cfrc_ext, xfrc_applied, wp, lay, dt, xp)
+    return state, tyres.wheel_wrench_xfrc(wrench, nbody, lay, xp)

@@ -11,6 +11,7 @@ t = (i + 1) dt; its torques are the ones applied during that step.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterator, Mapping
 from typing import Any
 
@@ -19,7 +20,7 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from batchveh.model import tyres, wheels
+from batchveh.model import wheels
 from batchveh.model.missions import body_forces_fn
 from batchveh.model.scenarios import Scenario, control_schedule, controls_fn
 from batchveh.model.vehicle import Layout, layout
@@ -59,8 +60,7 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
         if forces_fn is not None:
             xfrc = forces_fn(params, model.body_mass, i * dt).astype(d.xfrc_applied.dtype)
         if tp is not None:
-            ts, wrench = tyre_step(d, ts, tp, lay, dt)
-            on_wheels = tyres.wheel_wrench_xfrc(wrench, d.xfrc_applied.shape[-2], lay, jnp)
+            ts, on_wheels = tyre_step(d, ts, tp, lay, dt)
             xfrc = on_wheels if xfrc is None else xfrc + on_wheels
         if xfrc is not None:
             d = d.replace(xfrc_applied=xfrc)
@@ -75,11 +75,12 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
 
 
 def tyre_step(d: mjx.Data, ts, tp, lay: Layout, dt):
-    """The wheel-ground model's next state and wheel wrenches (4, 6) from MJX data after a step:
-    positions and contact forces of that step's forward pass, velocities now."""
+    """The wheel-ground model's next state and its wrenches as xfrc_applied (nbody, 6) from MJX data
+    after a step: positions and contact forces of that step's forward pass, velocities now."""
     cfrc = d._impl.cfrc_ext if lay.wheel_ground == "slip" else None
-    ts, wrench, _ = wheels.step(ts, d.xpos, d.xmat, d.qvel, cfrc, d.xfrc_applied, tp, lay, dt, jnp)
-    return ts, wrench.astype(d.xfrc_applied.dtype)
+    nbody = d.xfrc_applied.shape[-2]
+    ts, xfrc = wheels.step_xfrc(ts, d.xpos, d.xmat, d.qvel, cfrc, d.xfrc_applied, tp, lay, dt, nbody, jnp)
+    return ts, xfrc.astype(d.xfrc_applied.dtype)
 
 
 def _init(model: mjx.Model, d0: mjx.Data):
@@ -192,8 +193,9 @@ class MujocoTyre:
     and advances the tyre state.
 
     The array code is `wheels.step`, the one the MJX and warp scans run, compiled by XLA for the
-    CPU in float64: one fused loop instead of some two hundred numpy passes over the batch (3.4x
-    less time per step at 2,048 variants; the same values as numpy to the last bits)."""
+    CPU in float64: one fused loop instead of some two hundred numpy passes over the batch (3.0x
+    less time per step at 2,048 variants; wrenches equal to numpy's within 6e-14 N,
+    benchmarks/results/cpu-2core-wheel-ground-step.json)."""
 
     def __init__(self, m: mujoco.MjModel, lay: Layout, params: Mapping[str, Any]):
         self.nbody = m.nbody
@@ -217,12 +219,7 @@ def _c_step(lay: Layout, dt: float, nbody: int):
     chunks share it; XLA compiles it once per batch shape, about 0.6 s)."""
     key = (dt, nbody, *(tuple(v.ravel().tolist()) if isinstance(v, np.ndarray) else v for v in vars(lay).values()))
     if key not in _C_STEPS:
-
-        def step(state, xpos, xmat, qvel, cfrc_ext, xfrc_applied, tp):
-            state, w, _ = wheels.step(state, xpos, xmat, qvel, cfrc_ext, xfrc_applied, tp, lay, dt, jnp)
-            return state, tyres.wheel_wrench_xfrc(w, nbody, lay, jnp)
-
-        _C_STEPS[key] = jax.jit(step)
+        _C_STEPS[key] = jax.jit(functools.partial(wheels.step_xfrc, lay=lay, dt=dt, nbody=nbody, xp=jnp))
     return _C_STEPS[key]
 
 
