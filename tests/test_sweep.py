@@ -302,6 +302,25 @@ def test_block_update_equals_step_by_step():
     one = stats.finalize(acc, cfg)
     for k in block:
         np.testing.assert_allclose(block[k], one[k], rtol=1e-12, atol=1e-12, err_msg=k)
+    # the MJX/warp scan's way: JAX, one step per scan iteration, vmapped over the variants (its own
+    # path for the p95 buffer: one row written in place); float64 inside the scoped context
+    import jax
+    import jax.numpy as jnp
+
+    from batchveh.stepping.rollout import float_precision
+
+    def fold(x):
+        def body(c, i):
+            s = {k: jax.lax.dynamic_index_in_dim(v, i, 0) for k, v in x.items()}  # time axis kept, length 1
+            return stats.update(c, s, i[None], cfg, xp=jnp), None
+
+        acc = jax.lax.scan(body, stats.init(cfg, (), xp=jnp, dtype=jnp.float64), jnp.arange(steps))[0]
+        return stats.finalize(acc, cfg, xp=jnp)
+
+    with float_precision("f64"):
+        scanned = jax.jit(jax.vmap(fold))({k: jnp.asarray(v) for k, v in series.items()})
+    for k in block:
+        np.testing.assert_allclose(np.asarray(scanned[k]), block[k], rtol=1e-12, atol=1e-12, err_msg=f"jax {k}")
     # and the reductions are what they claim: mean over the window (second half), p95 of strided samples
     w = slice(cfg.first, cfg.last + 1)
     np.testing.assert_allclose(block["drive_lf_mean"], series["tau"][:, w, 0].mean(1))
