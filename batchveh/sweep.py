@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import importlib
 import os
 import sys
 import time
@@ -63,16 +62,6 @@ def enable_compile_cache() -> None:
     path = os.environ.get("BATCHVEH_CACHE", os.path.join(os.path.expanduser("~"), ".cache", "batchveh", "jax"))
     jax.config.update("jax_compilation_cache_dir", path)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
-
-
-def freeze_after_imports(backend: str) -> None:
-    """Import the engine's modules now (MJX, MuJoCo Warp, XLA's CPU step for the tyre), then move every
-    object made so far into the garbage collector's permanent generation (process-wide: for a process
-    that runs one sweep). The imports leave over a million long-lived objects, which each collection of
-    the older generations walked again while JAX traced the program: tracing the warp engine's program
-    took 0.54 s instead of 0.77 s on 2 cores. They would live to the exit anyway."""
-    importlib.import_module(f"batchveh.engines.{backend}")
-    gc.freeze()
 
 
 def init_warp_without_cuda() -> None:
@@ -327,9 +316,7 @@ def _positive(flag: str) -> Callable[[str], int]:
     return parse
 
 
-def main(argv: list[str] | None = None, *, one_job: bool = False) -> int:
-    """The command line. one_job: this process runs this one sweep and exits (the module's entry point;
-    tests call `main` without it): see `freeze_after_imports`."""
+def main(argv: list[str] | None = None) -> int:
     parser = OneLineParser(
         prog="python -m batchveh.sweep",
         description=__doc__.split("\n\n")[0],
@@ -388,11 +375,8 @@ def main(argv: list[str] | None = None, *, one_job: bool = False) -> int:
         enable_compile_cache()
         from batchveh.engines import resolve_backend
 
-        backend = resolve_backend(args.backend or spec.backend)
-        if backend == "warp" and args.executor == "local":
+        if resolve_backend(args.backend or spec.backend) == "warp" and args.executor == "local":
             init_warp_without_cuda()
-        if one_job and args.executor == "local":
-            freeze_after_imports(backend)
         executor = None
         if args.executor == "ray":
             from batchveh.sweeping import cluster
@@ -472,7 +456,7 @@ def tune_process_for_one_job() -> None:
 
 if __name__ == "__main__":
     tune_process_for_one_job()
-    code = main(one_job=True)
+    code = main()
     # the interpreter's last collection at exit would walk every object the run made (1-2 s);
     # frozen objects are left to the operating system, which frees the process's memory at once
     gc.freeze()
