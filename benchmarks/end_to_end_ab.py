@@ -25,12 +25,12 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from end_to_end import SUMMARY, gpus  # noqa: E402
 
 
-def run(tree: Path, spec: Path, out: Path, cache: Path, extra: list[str]) -> dict:
+def run(tree: Path, spec: Path, out: Path, cache: Path, extra: list[str], env: dict[str, str]) -> dict:
     t = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-m", "batchveh.sweep", str(spec), "--quiet", "--overwrite", "--out", str(out), *extra],
         cwd=tree,
-        env={**os.environ, "BATCHVEH_CACHE": str(cache)},
+        env={**os.environ, "BATCHVEH_CACHE": str(cache), **env},
         capture_output=True,
         text=True,
     )
@@ -48,22 +48,27 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("spec")
     ap.add_argument("--tree", action="append", required=True, help="NAME=PATH of a source tree holding batchveh/")
+    ap.add_argument("--env", action="append", default=[], help="NAME:KEY=VALUE, an environment variable for one tree")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--limit", type=int, help="run only the first N variants (--limit of the sweep)")
     ap.add_argument("--out", required=True)
     args = ap.parse_args()
     extra = ["--limit", str(args.limit)] if args.limit else []
-    trees = {k: Path(v).resolve() for k, v in (t.split("=", 1) for t in args.tree)}
+    trees = {k: Path(v).resolve() for k, v in (t.split("=", 1) for t in args.tree)}  # a path may repeat
     spec = Path(args.spec).resolve()
+    envs: dict[str, dict[str, str]] = {name: {} for name in trees}
+    for e in args.env:
+        name, kv = e.split(":", 1)
+        envs[name].update([kv.split("=", 1)])
     runs = []
     with tempfile.TemporaryDirectory() as tmp:
         cache = Path(tmp) / "jax-cache"
         for name, tree in trees.items():
-            row = run(tree, spec, Path(tmp) / "r", cache, extra)
+            row = run(tree, spec, Path(tmp) / "r", cache, extra, envs[name])
             print(json.dumps({"tree": name, "kind": "warm-up", **row}), flush=True)
         for r in range(args.rounds):
             for name, tree in trees.items():
-                row = {"tree": name, "round": r + 1, **run(tree, spec, Path(tmp) / "r", cache, extra)}
+                row = {"tree": name, "round": r + 1, **run(tree, spec, Path(tmp) / "r", cache, extra, envs[name])}
                 runs.append(row)
                 print(json.dumps(row), flush=True)
     summary = {}
@@ -81,6 +86,7 @@ def main():
         "spec": args.spec,
         "limit": args.limit,
         "trees": {k: str(v) for k, v in trees.items()},
+        "env": envs,
         "gpus": gpus(),
         "date": time.strftime("%Y-%m-%d %H:%M"),
         "cpus": os.cpu_count(),
