@@ -31,6 +31,10 @@ CURRENT = {
     "frictionless model without a tyre, 2 cores",
     "cpu-2core-wheel-ground-step.json": "The slip tyre's and the soil's step between MuJoCo C's steps, numpy and XLA",
     "cpu-2core-overhead.json": "batchveh mujoco against raw mujoco.batch on 2 cores (pyramidal contact, no tyre)",
+    "h200-tyres-p95row.json": "The warp engine, slip tyre and rigid contact side by side, after the p95 buffer change",
+    "h200-end-to-end-ab-p95row.json": "End to end, the p95 buffer change against the code before it, one H200",
+    "h200-end-to-end-slope_100k-p95row.json": "End to end on one H200 after the p95 buffer change",
+    "h200-warp-iterations.json": "The constraint solver's iterations on the warp engine",
     "h200-end-to-end-slope_100k.json": "End to end on one H200, fresh machine",
     "h200-end-to-end-slope_100k-layout.json": "End to end on another H200, fresh machine, after the layout change",
     "cpu-2core-end-to-end-slope_100k.json": "End to end on 2 CPU cores",
@@ -52,6 +56,17 @@ FILE_NOTES = {
     "h200-warp-impedance09.json": "Its contact, elliptic/10/0.9, changes two settings from the default "
     "(impratio 100, impedance 0.25), so its difference from the default is not the impedance's alone.",
 }
+FILE_NOTES["h200-end-to-end-ab-p95row.json"] = (
+    "Trees: `old` is 4ca06a8 (`git archive` of batchveh/), `new` the working tree of 8682147 less its gc.freeze "
+    "(as committed in c60e91b): the p95 buffer's row written in place."
+)
+FILE_NOTES["h200-end-to-end-ab-gcfreeze.json"] = (
+    "Trees: `old` is 4ca06a8, `new` 8682147 with the gc.freeze after the engine's import: every `new` run failed in "
+    "MuJoCo Warp's FFI callback ('Warp error: unknown stream'), so its walls time a failure, not a sweep."
+)
+FILE_NOTES["h200-end-to-end-ab-command-buffers.json"] = (
+    "Both trees are c60e91b's code; `nocb` runs with XLA's command buffers (CUDA graphs of XLA's own kernels) off."
+)
 FILE_NOTES["cpu-2core-overhead.json"] = (
     "Contact: MuJoCo's pyramidal cone, impratio 1, the default of the code it ran (391ac0d), no tyre; the file "
     "does not record it. Today's default models (the slip tyre; the rigid contact's elliptic cone, impratio 100) "
@@ -353,6 +368,52 @@ def process_profile_section(d: dict, name: str) -> list[str]:
     return [*out, "", f"(raw data: [{name}]({RAW}/{name}))", ""]
 
 
+def ab_section(d: dict, name: str) -> list[str]:
+    """benchmarks/end_to_end_ab.py: source trees (and environments) alternated, fresh processes."""
+    info = d["info"]
+    env = "; ".join(f"{k}: {' '.join(f'{a}={b}' for a, b in v.items())}" for k, v in info.get("env", {}).items() if v)
+    out = [
+        f"### End to end, alternated: `{info['spec']}`" + (f", --limit {info['limit']}" if info.get("limit") else ""),
+        "",
+        f"{', '.join(info['gpus']) or str(info['cpus']) + ' CPUs'}, {info['date']}"
+        + (f"; environment {env}" if env else "")
+        + ". Trees: "
+        + ", ".join(f"{k} `{v}`" for k, v in info["trees"].items()),
+        "",
+        "| tree | process s, round by round | median | the sweep, median s | compile, median s |",
+        "| --- | --- | ---: | ---: | ---: |",
+    ]
+    for k, v in d["summary"].items():
+        walls = ", ".join(f"{w:.2f}" for w in v["wall_s"])
+        out.append(
+            f"| {k} | {walls} | {v['wall_median_s']:.2f} | {v['sweep_median_s']:.2f} | {v['compile_median_s']:.2f} |"
+        )
+    return [*out, "", f"(raw data: [{name}]({RAW}/{name}))", ""]
+
+
+def iterations_section(d: dict, name: str) -> list[str]:
+    """benchmarks/warp_iterations.py: solver iterations, rate and accuracy per setting."""
+    info = d["info"]
+    out = [
+        f"### Solver iterations on the warp engine: `{info['spec']}`",
+        "",
+        f"{info['device']}, {info['date']}; reference: {info['reference']['variants']:,} variants, "
+        f"{info['reference']['engine']}.",
+        "",
+        "| tolerance | contacts / world | variants x steps | variant-steps/s | batch's largest iterations, mean / max "
+        "| a world's mean | wheel mean, median / p99 |",
+        "| ---: | ---: | --- | ---: | --- | ---: | --- |",
+    ]
+    for r in d["rows"]:
+        it, w = r["iterations"], r["accuracy_vs_c"].get("noslip_wheel_mean", {})
+        out.append(
+            f"| {r['tolerance']:.0e} | {r['contacts_per_world']} | {r['variants']:,} x {r['steps']:,} "
+            f"| {r['variant_steps_per_s']:.3g} | {it['batch_largest_mean']:.2f} / {it['batch_largest_max']} "
+            f"| {it['world_mean']:.2f} | {w.get('median', float('nan')):.1e} / {w.get('p99', float('nan')):.1e} |"
+        )
+    return [*out, "", f"(raw data: [{name}]({RAW}/{name}))", ""]
+
+
 def summary_section(d: dict, name: str, title: str) -> list[str]:
     """A file whose 'summary' maps a way of running to its best and median wall (and 'ratios')."""
     out = [f"### {title}", "", "| run | best wall s | median wall s |", "| --- | ---: | ---: |"]
@@ -411,8 +472,12 @@ def render_files(files: list[Path]) -> list[str]:
         if k in ("stages", "scaling", "contact-cost"):
             continue  # grouped below
         d = json.loads(f.read_text())
-        if k == "end-to-end":
+        if k == "end-to-end-ab":
+            out += ab_section(d, f.name)
+        elif k == "end-to-end":
             out += [end_to_end_section(d, f.name), ""]
+        elif k == "iterations":
+            out += iterations_section(d, f.name)
         elif k == "process-profile":
             out += process_profile_section(d, f.name)
         elif k == "gpu-start":
@@ -459,6 +524,8 @@ def render_files(files: list[Path]) -> list[str]:
 
 
 KINDS = (
+    "end-to-end-ab",
+    "iterations",
     "wheel-ground",
     "soil",
     "process-profile",
