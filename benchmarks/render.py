@@ -35,6 +35,8 @@ CURRENT = {
     "h200-end-to-end-ab-p95row.json": "End to end, the p95 buffer change against the code before it, one H200",
     "h200-end-to-end-slope_100k-p95row.json": "End to end on one H200 after the p95 buffer change",
     "h200-warp-iterations.json": "The constraint solver's iterations on the warp engine",
+    "h200-end-to-end-ab-unroll.json": "End to end, steps per iteration of the scan's loop, one H200",
+    "h200-warp-unroll.json": "Steps per iteration of the warp engine's scan loop, one H200",
     "h200-end-to-end-slope_100k.json": "End to end on one H200, fresh machine",
     "h200-end-to-end-slope_100k-layout.json": "End to end on another H200, fresh machine, after the layout change",
     "cpu-2core-end-to-end-slope_100k.json": "End to end on 2 CPU cores",
@@ -66,6 +68,15 @@ FILE_NOTES["h200-end-to-end-ab-gcfreeze.json"] = (
 )
 FILE_NOTES["h200-end-to-end-ab-command-buffers.json"] = (
     "Both trees are c60e91b's code; `nocb` runs with XLA's command buffers (CUDA graphs of XLA's own kernels) off."
+)
+FILE_NOTES["h200-end-to-end-ab-unroll.json"] = (
+    "Trees: `u1` is the working tree after 502706d (one step per iteration of the scan's loop), `u2` and `u5` its "
+    "copies with the warp engine's scan_unroll at 2 and 5."
+)
+FILE_NOTES["h200-warp-unroll.json"] = (
+    "Unroll 1's trace + lower was the process's first (JAX's and MJX's first use of much of their code); the "
+    "later rows' 1.2-1.8 s are the fairer comparison. The torque differences are float32's: a step's arithmetic "
+    "grouped otherwise."
 )
 FILE_NOTES["cpu-2core-overhead.json"] = (
     "Contact: MuJoCo's pyramidal cone, impratio 1, the default of the code it ran (391ac0d), no tyre; the file "
@@ -414,6 +425,26 @@ def iterations_section(d: dict, name: str) -> list[str]:
     return [*out, "", f"(raw data: [{name}]({RAW}/{name}))", ""]
 
 
+def unroll_section(d: dict, name: str) -> list[str]:
+    """benchmarks/warp_unroll.py: steps per iteration of the warp engine's scan loop."""
+    info = d["info"]
+    out = [
+        f"### Steps per iteration of the scan's loop, warp engine: `{info['spec']}`",
+        "",
+        f"{info['device']}, {info['date']}.",
+        "",
+        "| unroll | variants x steps | trace + lower s | compile s (cold) | run s | variant-steps/s | largest torque "
+        "difference to unroll 1 |",
+        "| ---: | --- | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    for r in d["rows"]:
+        out.append(
+            f"| {r['unroll']} | {r['variants']:,} x {r['steps']:,} | {r['trace_lower_s']:.2f} | {r['compile_s']:.2f} "
+            f"| {r['run_s']:.2f} | {r['variant_steps_per_s']:.3g} | {r['largest_torque_difference_vs_first']:.1e} |"
+        )
+    return [*out, "", f"(raw data: [{name}]({RAW}/{name}))", ""]
+
+
 def summary_section(d: dict, name: str, title: str) -> list[str]:
     """A file whose 'summary' maps a way of running to its best and median wall (and 'ratios')."""
     out = [f"### {title}", "", "| run | best wall s | median wall s |", "| --- | ---: | ---: |"]
@@ -478,6 +509,8 @@ def render_files(files: list[Path]) -> list[str]:
             out += [end_to_end_section(d, f.name), ""]
         elif k == "iterations":
             out += iterations_section(d, f.name)
+        elif k == "unroll":
+            out += unroll_section(d, f.name)
         elif k == "process-profile":
             out += process_profile_section(d, f.name)
         elif k == "gpu-start":
@@ -526,6 +559,7 @@ def render_files(files: list[Path]) -> list[str]:
 KINDS = (
     "end-to-end-ab",
     "iterations",
+    "unroll",
     "wheel-ground",
     "soil",
     "process-profile",

@@ -65,6 +65,9 @@ class WarpEngine(MjxEngine):
         self.devices = self.devices[:1]
         self.chunk_size = chunk_size
         self.contacts_per_world = contacts_per_world or CONTACTS_PER_WORLD
+        # steps per iteration of the scan's loop: 2, 3 and 5 ran no faster than 1 on one H200 (11.06-11.11 s for
+        # 100,000 variants x 2,100 steps, benchmarks/results/h200-warp-unroll.json) and compile longer
+        self.scan_unroll = 1
 
     @property
     def implementation(self) -> str:
@@ -89,5 +92,7 @@ class WarpEngine(MjxEngine):
             njmax=constraint_rows(batch.model, self.contacts_per_world),
         )
 
-        one = lambda m, p: mjx_stats(m, p, scenario=self.scenario, cfg=self.cfg, lay=lay, data=data)  # noqa: E731
+        one = lambda m, p: mjx_stats(  # noqa: E731
+            m, p, scenario=self.scenario, cfg=self.cfg, lay=lay, data=data, unroll=self.scan_unroll
+        )
         return jax.vmap(one, in_axes=(axes, 0))

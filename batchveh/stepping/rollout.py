@@ -110,13 +110,14 @@ def mjx_stats(
     cfg: stats.StatsConfig,
     lay: Layout,
     data: mjx.Data | None = None,
+    unroll: int = 1,
 ) -> dict[str, jax.Array]:
     """Statistics columns of one variant (pure; vmap it over a batched model), and, where the
     implementation reports it, `solver_limit_share`: the share of steps whose solve ran out of
     iterations.
 
     data: the initial data (MJX's Warp implementation makes it from the MjModel); default
-    `mjx.make_data(model)`."""
+    `mjx.make_data(model)`. unroll: steps per iteration of the scan's loop (`lax.scan`'s)."""
     dtype = model.opt.timestep.dtype
     health = reports_solver_iterations(model)
 
@@ -130,7 +131,7 @@ def mjx_stats(
     body = _scan(model, params, scenario, lay, out)
     d0 = mjx.make_data(model) if data is None else data
     init = (_init(model, d0), (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
-    (_, (acc, at_limit)), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps))
+    (_, (acc, at_limit)), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps), unroll=unroll)
     cols = stats.finalize(acc, cfg, xp=jnp)
     if health:
         cols["solver_limit_share"] = at_limit.astype(dtype) / cfg.n_steps
