@@ -38,7 +38,19 @@ from batchveh.stepping.batch import VariantBatch, apply_solver, make_batch  # no
 from batchveh.sweeping.spec import load_spec  # noqa: E402
 
 
-def batch_of(spec, start: int, n: int, tolerance: float | None) -> VariantBatch:
+def spec_of(path: str, steps: int | None = None):
+    """The sweep spec at `path`, its runs cut to `steps` steps where given (to try a study on a CPU)."""
+    spec = load_spec(path)
+    if steps:
+        import dataclasses
+
+        sc = spec.scenario
+        spec = dataclasses.replace(spec, scenario=dataclasses.replace(sc, total_time=steps * sc.time_step))
+    return spec
+
+
+def batch_of(spec, start: int, n: int, tolerance: float | None = None) -> VariantBatch:
+    """Variants start..start+n of the spec's table, with the spec's solver (and `tolerance`)."""
     rows = spec.table().rows(start, start + n)
     b = make_batch(spec.vehicle, spec.scenario, {k: rows[k].to_numpy() for k in spec.params}, spec.params)
     apply_solver(b.model, spec.solver)
@@ -102,12 +114,7 @@ def main():
     args = ap.parse_args()
     import jax
 
-    spec = load_spec(args.spec)
-    if args.steps:
-        import dataclasses
-
-        sc = spec.scenario
-        spec = dataclasses.replace(spec, scenario=dataclasses.replace(sc, total_time=args.steps * sc.time_step))
+    spec = spec_of(args.spec, args.steps)
     cfg = spec.stats_config()
     t0 = time.perf_counter()
     ref_engine = make_engine("mujoco", spec.scenario, cfg, args.ref, args.ref)

@@ -21,10 +21,12 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from warp_iterations import batch_of, spec_of  # noqa: E402
 
 from batchveh.engines.warp import WarpEngine  # noqa: E402
-from batchveh.stepping.batch import apply_solver, make_batch, mjx_model  # noqa: E402
-from batchveh.sweeping.spec import load_spec  # noqa: E402
+from batchveh.stepping.batch import mjx_model  # noqa: E402
 
 
 def main():
@@ -38,16 +40,9 @@ def main():
     import jax
     import jax.numpy as jnp
 
-    spec = load_spec(args.spec)
-    if args.steps:
-        import dataclasses
-
-        sc = spec.scenario
-        spec = dataclasses.replace(spec, scenario=dataclasses.replace(sc, total_time=args.steps * sc.time_step))
+    spec = spec_of(args.spec, args.steps)
     cfg = spec.stats_config()
-    rows_ = spec.table().rows(0, args.n)
-    batch = make_batch(spec.vehicle, spec.scenario, {k: rows_[k].to_numpy() for k in spec.params}, spec.params)
-    apply_solver(batch.model, spec.solver)
+    batch = batch_of(spec, 0, args.n)
     rows, base = [], None
     for u in args.unroll:
         engine = WarpEngine(spec.scenario, cfg, args.n)
