@@ -37,6 +37,7 @@ CURRENT = {
     "h200-warp-iterations.json": "The constraint solver's iterations on the warp engine",
     "h200-end-to-end-ab-unroll.json": "End to end, steps per iteration of the scan's loop, one H200",
     "h200-warp-unroll.json": "Steps per iteration of the warp engine's scan loop, one H200",
+    "h200-warm-compile.json": "A warm sweep's steps before its simulation, one H200",
     "h200-end-to-end-slope_100k.json": "End to end on one H200, fresh machine",
     "h200-end-to-end-slope_100k-layout.json": "End to end on another H200, fresh machine, after the layout change",
     "cpu-2core-end-to-end-slope_100k.json": "End to end on 2 CPU cores",
@@ -425,6 +426,24 @@ def iterations_section(d: dict, name: str) -> list[str]:
     return [*out, "", f"(raw data: [{name}]({RAW}/{name}))", ""]
 
 
+def warm_compile_section(d: dict, name: str) -> list[str]:
+    """benchmarks/warm_compile.py's printed lines: a sweep's steps before its simulation, apart."""
+    keys = ("imports_s", "batch_s", "upload_s", "program_s", "trace_s", "lower_s", "compile_s", "total_s")
+    out = [
+        "### A sweep's steps before its simulation, apart (`benchmarks/warm_compile.py`)",
+        "",
+        f"{d['device']}, {d['date']}, code {d['code']}. {d['what']}.",
+        "",
+        "| environment | cache files before | " + " | ".join(k[:-2] + " s" for k in keys) + " |",
+        "| --- | ---: | " + " | ".join("---:" for _ in keys) + " |",
+    ]
+    for r in d["runs"]:
+        out.append(
+            f"| {r['env'] or '-'} | {r['cache_files_before']} | " + " | ".join(f"{r[k]:.2f}" for k in keys) + " |"
+        )
+    return [*out, "", f"(raw data: [{name}]({RAW}/{name}))", ""]
+
+
 def unroll_section(d: dict, name: str) -> list[str]:
     """benchmarks/warp_unroll.py: steps per iteration of the warp engine's scan loop."""
     info = d["info"]
@@ -511,6 +530,8 @@ def render_files(files: list[Path]) -> list[str]:
             out += iterations_section(d, f.name)
         elif k == "unroll":
             out += unroll_section(d, f.name)
+        elif k == "warm-compile":
+            out += warm_compile_section(d, f.name)
         elif k == "process-profile":
             out += process_profile_section(d, f.name)
         elif k == "gpu-start":
@@ -557,6 +578,7 @@ def render_files(files: list[Path]) -> list[str]:
 
 
 KINDS = (
+    "warm-compile",
     "end-to-end-ab",
     "iterations",
     "unroll",
