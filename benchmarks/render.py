@@ -426,6 +426,14 @@ def iterations_section(d: dict, name: str) -> list[str]:
     return [*out, "", f"(raw data: [{name}]({RAW}/{name}))", ""]
 
 
+def probe_section(d: dict, name: str) -> list[str]:
+    """A probe's runs: what was done before and what came of it."""
+    out = [f"### Probe: {name}", "", f"{d['device']}, {d['date']}, code {d['code']}. {d['what']}.", ""]
+    out += ["| before | outcome |", "| --- | --- |"]
+    out += [f"| {r['before main']} | {r['outcome']} |" for r in d["runs"]]
+    return [*out, "", f"(raw data: [{name}]({RAW}/{name}))", ""]
+
+
 def warm_compile_section(d: dict, name: str) -> list[str]:
     """benchmarks/warm_compile.py's printed lines: a sweep's steps before its simulation, apart."""
     keys = ("imports_s", "batch_s", "upload_s", "program_s", "trace_s", "lower_s", "compile_s", "total_s")
@@ -532,6 +540,8 @@ def render_files(files: list[Path]) -> list[str]:
             out += unroll_section(d, f.name)
         elif k == "warm-compile":
             out += warm_compile_section(d, f.name)
+        elif k == "probe":
+            out += probe_section(d, f.name)
         elif k == "process-profile":
             out += process_profile_section(d, f.name)
         elif k == "gpu-start":
@@ -578,6 +588,7 @@ def render_files(files: list[Path]) -> list[str]:
 
 
 KINDS = (
+    "probe",
     "warm-compile",
     "end-to-end-ab",
     "iterations",
