@@ -35,6 +35,7 @@ def main():
     import jax.numpy as jnp
 
     from batchveh.engines import make_engine
+    from batchveh.engines.common import pad
     from batchveh.stepping.batch import apply_solver, make_batch, mjx_model
     from batchveh.stepping.rollout import float_precision
     from batchveh.sweeping.spec import load_spec
@@ -49,8 +50,6 @@ def main():
     rows = spec.table().rows(0, n)
     batch = make_batch(spec.vehicle, spec.scenario, {k: rows[k].to_numpy() for k in spec.params}, spec.params)
     apply_solver(batch.model, spec.solver)
-    from batchveh.engines.common import pad
-
     batch = pad(batch, engine.chunk_size)
     t["batch_s"] = time.perf_counter() - s
     with float_precision(engine.precision), engine._call_context():

@@ -59,6 +59,16 @@ def batch_of(spec, start: int, n: int, tolerance: float | None = None) -> Varian
     return b
 
 
+def timed_runs(engine, batch: VariantBatch) -> tuple[float, float, dict]:
+    """(first run s, second run s, the second run's columns): the first compiles, the second is the rate's."""
+    t = time.perf_counter()
+    engine.run(batch)
+    first = time.perf_counter() - t
+    t = time.perf_counter()
+    cols = engine.run(batch)
+    return first, time.perf_counter() - t, cols
+
+
 def iteration_counts(engine, batch: VariantBatch, cfg) -> dict[str, float]:
     """Each world's solver iterations at every step, reduced on the device: the same rollout as the
     engine's (its model, initial data and wheel-ground step), with `solver_niter` as the output."""
@@ -129,12 +139,7 @@ def main():
     for tol, contacts in runs:
         engine = WarpEngine(spec.scenario, cfg, args.n, contacts_per_world=contacts)
         batch = batch_of(spec, 0, args.n, tol)
-        t = time.perf_counter()
-        engine.run(batch)
-        first = time.perf_counter() - t
-        t = time.perf_counter()
-        cols = engine.run(batch)
-        wall = time.perf_counter() - t
+        first, wall, cols = timed_runs(engine, batch)
         its = iteration_counts(engine, batch, cfg)
         sel = {k: np.asarray(v)[: args.ref] for k, v in cols.items()}
         refsel = dict(ref)

@@ -23,7 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from warp_iterations import batch_of, spec_of  # noqa: E402
+from warp_iterations import batch_of, spec_of, timed_runs  # noqa: E402
 
 from batchveh.engines.warp import WarpEngine  # noqa: E402
 from batchveh.stepping.batch import mjx_model  # noqa: E402
@@ -54,12 +54,7 @@ def main():
             t = time.perf_counter()
             jax.jit(prog).trace(mx, params).lower()
             trace_lower = time.perf_counter() - t
-        t = time.perf_counter()
-        engine.run(batch)
-        first = time.perf_counter() - t
-        t = time.perf_counter()
-        cols = engine.run(batch)
-        run = time.perf_counter() - t
+        first, run, cols = timed_runs(engine, batch)
         if base is None:
             base = cols
         diff = 0.0
