@@ -390,7 +390,9 @@ def ab_section(d: dict, name: str) -> list[str]:
         f"{', '.join(info['gpus']) or str(info['cpus']) + ' CPUs'}, {info['date']}"
         + (f"; environment {env}" if env else "")
         + ". Trees: "
-        + ", ".join(f"{k} `{v}`" for k, v in info["trees"].items()),
+        + ", ".join(f"{k} `{v}`" for k, v in info["trees"].items())
+        + (". Code: " + ", ".join(f"{k} {v}" for k, v in info["code"].items()) if "code" in info else "")
+        + (f". {info['device']}" if "device" in info else ""),
         "",
         "| tree | process s, round by round | median | the sweep, median s | compile, median s |",
         "| --- | --- | ---: | ---: | ---: |",
@@ -431,6 +433,31 @@ def probe_section(d: dict, name: str) -> list[str]:
     out = [f"### Probe: {name}", "", f"{d['device']}, {d['date']}, code {d['code']}. {d['what']}.", ""]
     out += ["| before | outcome |", "| --- | --- |"]
     out += [f"| {r['before main']} | {r['outcome']} |" for r in d["runs"]]
+    return [*out, "", f"(raw data: [{name}]({RAW}/{name}))", ""]
+
+
+def step_profile_section(d: dict, name: str) -> list[str]:
+    """benchmarks/warp_profile.py runs: a scan step's device time by kind of kernel, per run."""
+    out = [
+        f"### Where a step of the warp engine's scan spends its GPU time: {name}",
+        "",
+        f"{d['device']}, {d['date']}. {d['what']}.",
+        "",
+        "| run | code | wall per step, us | device busy | Warp kernels | XLA kernels | copies | XLA launches "
+        "| largest XLA kernel, us |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
+    ]
+    for r in d["runs"]:
+        if "error" in r:
+            out.append(f"| {r['label']} | {r['code']} | {r['error']} |||||||")
+            continue
+        us, n = r["per_step_us"], r["launches_per_step"]
+        top = next((k for k in r["kernels"] if k["kind"] == "xla"), None)
+        out.append(
+            f"| {r['label']} | {r['code']} | {r['wall_per_step_us']:.0f} | {r['device_busy_per_step_us']:.0f} "
+            f"| {us.get('warp', 0):.0f} | {us.get('xla', 0):.0f} | {us.get('copy', 0):.0f} | {n.get('xla', 0):.1f} "
+            + (f"| {top['kernel']} {top['us_per_step']:.0f} |" if top else "| - |")
+        )
     return [*out, "", f"(raw data: [{name}]({RAW}/{name}))", ""]
 
 
@@ -538,6 +565,8 @@ def render_files(files: list[Path]) -> list[str]:
             out += iterations_section(d, f.name)
         elif k == "unroll":
             out += unroll_section(d, f.name)
+        elif k == "step-profile":
+            out += step_profile_section(d, f.name)
         elif k == "warm-compile":
             out += warm_compile_section(d, f.name)
         elif k == "probe":
@@ -589,6 +618,7 @@ def render_files(files: list[Path]) -> list[str]:
 
 KINDS = (
     "probe",
+    "step-profile",
     "warm-compile",
     "end-to-end-ab",
     "iterations",

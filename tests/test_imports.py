@@ -18,7 +18,19 @@ LAYERS = {
     # kinds and the registry of sweepable parameters
     "model": tuple(
         f"model.{m}"
-        for m in ("", "vehicle", "tyres", "soil", "wheels", "laws", "course", "scenarios", "missions", "params")
+        for m in (
+            "",
+            "vehicle",
+            "indexing",
+            "tyres",
+            "soil",
+            "wheels",
+            "laws",
+            "course",
+            "scenarios",
+            "missions",
+            "params",
+        )
     ),
     # a chunk of variants -> the batched model; the pure step and scan bodies; the reductions in the carry
     "stepping": tuple(f"stepping.{m}" for m in ("", "batch", "rollout", "stats", "mission_stats")),

@@ -35,6 +35,7 @@ class MjxEngine:
 
     name = "mjx"
     impl = "jax"  # MJX's implementation (mjx.put_model's impl)
+    graph_mode: str | None = None  # MuJoCo Warp's CUDA graph capture (`batch.mjx_model`); None: MJX's default
 
     def __init__(
         self,
@@ -108,7 +109,7 @@ class MjxEngine:
         n = batch.n
         batch = pad(batch, self.chunk_size)
         with float_precision(self.precision), self._call_context():
-            mx, axes = mjx_model(batch, self.impl)
+            mx, axes = mjx_model(batch, self.impl, self.graph_mode)
             dtype = jnp.result_type(float)
             params = {k: jnp.asarray(v, dtype) for k, v in batch.params.items()}
             if len(self.devices) > 1:

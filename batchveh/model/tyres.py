@@ -48,6 +48,7 @@ from typing import Any, Literal
 import numpy as np
 
 from batchveh.config import field
+from batchveh.model.indexing import place, take
 
 MODELS = ("rigid", "slip", "soil")
 # state per wheel: u_x, u_y (m), phi (rad), q (rolling-resistance engagement, -1..1)
@@ -148,12 +149,12 @@ def kinematics(xpos, xmat, qvel, lay, xp=np) -> dict[str, Any]:
     r0 = xmat[..., lay.chassis_body, :, :]
     v0 = qvel[..., 0:3]
     w0 = (r0 * qvel[..., None, 3:6]).sum(-1)  # R @ omega_local
-    c = xpos[..., lay.wheel_bodies, :]
-    hub = xpos[..., lay.hub_bodies, :]
-    z_hub = xmat[..., lay.hub_bodies, :, :][..., 2]  # (the rows first: numpy and JAX would move a
-    axle = xmat[..., lay.wheel_bodies, :, :][..., 1]  # split advanced index to the front)
-    steer = qvel[..., lay.motor_dof[4:]][..., None]
-    spin = qvel[..., lay.motor_dof[:4]]
+    c = take(xpos, lay.wheel_bodies, -2)
+    hub = take(xpos, lay.hub_bodies, -2)
+    z_hub = take(xmat, lay.hub_bodies, -3)[..., 2]
+    axle = take(xmat, lay.wheel_bodies, -3)[..., 1]
+    steer = take(qvel, lay.motor_dof[4:])[..., None]
+    spin = take(qvel, lay.motor_dof[:4])
     v = v0[..., None, :] + xp.cross(w0[..., None, :], c - x0[..., None, :]) + steer * xp.cross(z_hub, c - hub)
     w = w0[..., None, :] + steer * z_hub + spin[..., None] * axle
     return {"c": c, "axle": axle, "v": v, "w": w, "spin": spin}
@@ -161,7 +162,7 @@ def kinematics(xpos, xmat, qvel, lay, xp=np) -> dict[str, Any]:
 
 def contact_force(cfrc_ext, xfrc_applied, lay):
     """The net contact force on each wheel, (..., 4, 3) world: cfrc_ext's force less the applied one."""
-    return cfrc_ext[..., lay.wheel_bodies, 3:6] - xfrc_applied[..., lay.wheel_bodies, 0:3]
+    return take(cfrc_ext, lay.wheel_bodies, -2)[..., 3:6] - take(xfrc_applied, lay.wheel_bodies, -2)[..., 0:3]
 
 
 def init_state(shape: tuple[int, ...], xp=np, dtype=None):
@@ -248,9 +249,4 @@ def spin_bristle(phi_old, spin_n, relax, k_phi, d_phi, m_max, dt, xp=np):
 
 def wheel_wrench_xfrc(wrench, nbody: int, lay, xp=np):
     """xfrc_applied (..., nbody, 6) holding each wheel's wrench on its body, zero elsewhere."""
-    lead = wrench.shape[:-2]
-    if xp is np:
-        out = np.zeros((*lead, nbody, 6), wrench.dtype)
-        out[..., lay.wheel_bodies, :] = wrench
-        return out
-    return xp.zeros((*lead, nbody, 6), wrench.dtype).at[..., lay.wheel_bodies, :].set(wrench)
+    return place(xp.asarray(wrench), lay.wheel_bodies, nbody, -2)

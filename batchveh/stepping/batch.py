@@ -262,13 +262,15 @@ def import_mjx():
 WARP_UNREAD = ("dof_M0", "dof_length", "bvh_aabb")
 
 
-def mjx_model(batch: VariantBatch, impl: str = "jax") -> tuple[Any, Any]:
+def mjx_model(batch: VariantBatch, impl: str = "jax", graph_mode: str | None = None) -> tuple[Any, Any]:
     """The MJX model with batched fields, and its `in_axes` tree (0 where a field varies).
 
     impl: 'jax' (MJX's JAX implementation) or 'warp' (MuJoCo Warp inside MJX, float32). The Warp
     model keeps some fields in its own shapes (geom_aabb as (ngeom, 2, 3)): a batched field is
     reshaped to the model's. Its overflow and iteration-limit messages are switched off: the
-    engine reports them per variant instead (`rollout.solver_at_limit`)."""
+    engine reports them per variant instead (`rollout.solver_at_limit`). graph_mode: how MuJoCo
+    Warp's calls are captured in CUDA graphs (a name of `warp.JaxCallableGraphMode`; None: MJX's
+    default)."""
     import jax
     import jax.numpy as jnp
 
@@ -276,7 +278,12 @@ def mjx_model(batch: VariantBatch, impl: str = "jax") -> tuple[Any, Any]:
     course.check_backend(batch.model, "mjx" if impl == "jax" else impl)
     m = mjx.put_model(batch.model, impl=impl)
     if impl == "warp":
-        m = m.replace(opt=m.opt.replace(_impl=m.opt._impl.replace(warn_overflow=0)))
+        private = {"warn_overflow": 0}
+        if graph_mode is not None:
+            import warp
+
+            private["graph_mode"] = warp.JaxCallableGraphMode[graph_mode]
+        m = m.replace(opt=m.opt.replace(_impl=m.opt._impl.replace(**private)))
     axes = jax.tree_util.tree_map(lambda _: None, m)
     public = {f.name for f in type(m).fields()}
     opt, opt_axes = {}, {}

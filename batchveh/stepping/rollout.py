@@ -21,6 +21,7 @@ import mujoco
 import numpy as np
 
 from batchveh.model import wheels
+from batchveh.model.indexing import take
 from batchveh.model.missions import body_forces_fn
 from batchveh.model.scenarios import Scenario, control_schedule, controls_fn
 from batchveh.model.vehicle import Layout, layout
@@ -66,7 +67,7 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
             d = d.replace(xfrc_applied=xfrc)
         qvel_prev = d.qvel
         d = mjx.step(model, d.replace(ctrl=ctrl))
-        dv = (d.qvel - qvel_prev)[lay.motor_dof]
+        dv = take(d.qvel - qvel_prev, lay.motor_dof)
         s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, params["wheel.radius"], lay, damping, dv)
         (d, acc), out = body_out(d, acc, s, i)
         return ((d, ts), acc), out

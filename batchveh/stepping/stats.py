@@ -35,6 +35,7 @@ import numpy as np
 
 from batchveh.config import ConfigError
 from batchveh.model import soil
+from batchveh.model.indexing import take
 from batchveh.model.vehicle import CHANNELS, CORNERS, Vehicle
 from batchveh.stepping import mission_stats
 
@@ -141,16 +142,16 @@ def sample(qpos, qvel, qfrc_actuator, ctrl, wheel_radius, lay, damping=None, mot
     kv dv: 3.6 N m less per wheel at 5 ms on a 1 s ramp to 1 km/h (validation/PEAKS.md).
     Without them, qfrc_actuator as it is.
     """
-    omega = qvel[..., lay.motor_dof[:4]]
-    tau = qfrc_actuator[..., lay.motor_dof]
+    omega = take(qvel, lay.motor_dof[:4])
+    tau = take(qfrc_actuator, lay.motor_dof)
     if damping is not None:
         tau = tau - damping * motor_dv
     return {
         "tau": tau,
         "omega": omega,
-        "rate": qvel[..., lay.motor_dof],  # the 8 motor joints' speeds
+        "rate": take(qvel, lay.motor_dof),  # the 8 motor joints' speeds
         "rim": omega.mean(-1) * wheel_radius,
-        "alpha": qpos[..., lay.motor_qpos[4:]],
+        "alpha": take(qpos, lay.motor_qpos[4:]),
         "ref": ctrl[..., :8],
         "pos": qpos[..., 0:3],
         "quat": qpos[..., 3:7],
