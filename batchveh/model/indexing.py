@@ -5,7 +5,7 @@ scatter (writing). Under `vmap` the gather puts its index axis first and the var
 so XLA's fusions ran in a (wheel, variant, component) layout that reads MuJoCo's
 (variant, body, component) arrays with a stride per thread: on one H200 the warp engine's tyre
 and statistics took 0.50 ms of XLA kernels per step of 100,000 variants, the largest fusion 0.11
-ms (benchmarks/results/h200-warp-profile.json). Runs of evenly spaced indices (every Layout
+ms (benchmarks/results/h200-step-profile-indexing.json). Runs of evenly spaced indices (every Layout
 index array is one or two such runs: the bodies alternate hub and wheel, the motor joints
 steer and drive) are read as strided slices instead, and written by `lax.pad` with interior
 padding: elementwise in the arrays' own layout.
@@ -36,33 +36,36 @@ def runs(idx) -> list[slice]:
     return out
 
 
+def _at(idx, axis: int) -> tuple:
+    """The index tuple that picks `idx` along `axis` (negative) of any array."""
+    return (Ellipsis, idx) + (slice(None),) * (-axis - 1)
+
+
 def take(x, idx, axis: int = -1):
     """x's entries at the constant indices `idx` along `axis` (negative, counted from the end)."""
     if isinstance(x, np.ndarray) or np.ndim(idx) == 0:
-        return x[(Ellipsis, idx) + (slice(None),) * (-axis - 1)]
+        return x[_at(idx, axis)]
     import jax.numpy as jnp
 
-    parts = [x[(Ellipsis, s) + (slice(None),) * (-axis - 1)] for s in runs(idx)]
+    parts = [x[_at(s, axis)] for s in runs(idx)]
     return parts[0] if len(parts) == 1 else jnp.concatenate(parts, axis=axis)
 
 
 def place(values, idx, size: int, axis: int = -2):
     """An array of zeros, `size` long along `axis` (negative), holding `values` at the indices `idx`
     (`values` has len(idx) entries along that axis)."""
+    shape = list(values.shape)
+    shape[axis] = size
     if isinstance(values, np.ndarray):
-        shape = list(values.shape)
-        shape[axis] = size
         out = np.zeros(shape, values.dtype)
-        out[(Ellipsis, idx) + (slice(None),) * (-axis - 1)] = values
+        out[_at(idx, axis)] = values
         return out
     import jax.numpy as jnp
     from jax import lax
 
     spans = runs(idx)
     if len(spans) != 1:
-        shape = list(values.shape)
-        shape[axis] = size
-        return jnp.zeros(shape, values.dtype).at[(Ellipsis, idx) + (slice(None),) * (-axis - 1)].set(values)
+        return jnp.zeros(shape, values.dtype).at[_at(idx, axis)].set(values)
     first, step = spans[0].start, spans[0].step
     last = first + (values.shape[axis] - 1) * step
     pads = [(0, 0, 0)] * values.ndim

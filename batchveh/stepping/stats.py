@@ -142,14 +142,15 @@ def sample(qpos, qvel, qfrc_actuator, ctrl, wheel_radius, lay, damping=None, mot
     kv dv: 3.6 N m less per wheel at 5 ms on a 1 s ramp to 1 km/h (validation/PEAKS.md).
     Without them, qfrc_actuator as it is.
     """
-    omega = take(qvel, lay.motor_dof[:4])
+    rate = take(qvel, lay.motor_dof)  # the 8 motor joints' speeds, drives first
+    omega = rate[..., :4]
     tau = take(qfrc_actuator, lay.motor_dof)
     if damping is not None:
         tau = tau - damping * motor_dv
     return {
         "tau": tau,
         "omega": omega,
-        "rate": take(qvel, lay.motor_dof),  # the 8 motor joints' speeds
+        "rate": rate,
         "rim": omega.mean(-1) * wheel_radius,
         "alpha": take(qpos, lay.motor_qpos[4:]),
         "ref": ctrl[..., :8],
