@@ -51,7 +51,29 @@ RATE_PER_GPU = {
     "slip": {"mjx": 2.9e6, "warp": 1.7e7},
     "soil": {"mjx": 7.9e5, "warp": 1.1e7},
 }
+# Preparing structural variants (stepping/fields.py: closed forms and mj_setConst), CPU thread-seconds per
+# variant: 10.3-18.4 us per variant on 2 threads (benchmarks/results/cpu-2core-structural.json)
+PREPARE_S_PER_VARIANT = 2.8e-5
 COMPILE_S = {"mujoco": 2.0, "mjx-cpu": 60.0, "mjx-gpu": 15.0, "warp-cpu": 40.0, "warp-gpu": 60.0}
+# a GPU process with warm caches (JAX's compile cache filled, Warp's kernels built): imports, the first GPU work,
+# trace and cache load, about 7 s on one H200 (benchmarks/results/h200-warm-compile.json)
+WARM_START_S = 8.0
+
+
+def compile_cache_dir() -> str:
+    """JAX's persistent compile cache of batchveh: $BATCHVEH_CACHE or ~/.cache/batchveh/jax."""
+    return os.environ.get("BATCHVEH_CACHE", os.path.join(os.path.expanduser("~"), ".cache", "batchveh", "jax"))
+
+
+def caches_warm(backend: str) -> bool:
+    """Whether a GPU run would find its caches filled: JAX's compile cache, and for warp Warp's kernel
+    cache ($WARP_CACHE_PATH or ~/.cache/warp) with built kernels."""
+
+    def filled(path: str) -> bool:
+        return os.path.isdir(path) and any(os.scandir(path))
+
+    warp_cache = os.environ.get("WARP_CACHE_PATH", os.path.join(os.path.expanduser("~"), ".cache", "warp"))
+    return filled(compile_cache_dir()) and (backend != "warp" or filled(warp_cache))
 
 
 def enable_compile_cache() -> None:
@@ -59,7 +81,7 @@ def enable_compile_cache() -> None:
     the CLI's `main` calls it). The folder is $BATCHVEH_CACHE or ~/.cache/batchveh/jax."""
     import jax
 
-    path = os.environ.get("BATCHVEH_CACHE", os.path.join(os.path.expanduser("~"), ".cache", "batchveh", "jax"))
+    path = compile_cache_dir()
     jax.config.update("jax_compilation_cache_dir", path)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
@@ -125,12 +147,17 @@ class InProcess:
         return self.runner.manifest, self.runner.device
 
     def run(
-        self, todo: list[int], finished: Callable[[int, str, dict], None], note: Callable[[str], None]
+        self,
+        todo: list[int],
+        finished: Callable[[int, str, dict], None],
+        note: Callable[[str], None],
+        phase: Callable[[str], None] = lambda _: None,
     ) -> dict[int, str]:
-        """Run and write the chunks in `todo`, calling finished(chunk, part name, record) after each;
-        return the chunks that failed (none: an error here stops the sweep)."""
-        for c in todo:
-            finished(c, *self.folder.write_file(c, self.runner.run(c)))
+        """Run and write the chunks in `todo`, calling finished(chunk, part name, record) after each and
+        phase(what) as each phase of a chunk starts; return the chunks that failed (none: an error here
+        stops the sweep)."""
+        for c, table in self.runner.run_ahead(todo, phase):
+            finished(c, *self.folder.write_file(c, table))
         return {}
 
     def engine_stats(self) -> dict[str, Any]:
@@ -215,7 +242,7 @@ def run_sweep(
                 ran += size[c]
                 bar.update(size[c])
 
-            failed = executor.run(todo, finished, note)
+            failed = executor.run(todo, finished, note, phase=lambda what: bar.set_postfix_str(what, refresh=True))
             bar.close()
             wall = time.perf_counter() - t_start
             engine = executor.engine_stats()
@@ -252,10 +279,17 @@ def run_sweep(
     }
 
 
-def estimate(backend: str, variant_steps: int, tyre: str = "slip") -> tuple[float, str]:
+def estimate(
+    backend: str, variant_steps: int, tyre: str = "slip", structural: int = 0, chunk: int = 0
+) -> tuple[float, str]:
     """(seconds, on what) for `variant_steps` on the backend and the devices this process sees, with
-    the wheel-ground model `tyre` ('slip', 'rigid' or 'soil')."""
+    the wheel-ground model `tyre` ('slip', 'rigid' or 'soil'), `structural` variants of a sweep over the
+    vehicle to prepare (on the CPU threads: on a GPU only the first `chunk` of them is not hidden behind
+    the simulation of the chunk before)."""
     from batchveh.engines import has_gpu
+    from batchveh.engines.mujoco import cpus
+
+    prepare = structural * PREPARE_S_PER_VARIANT / cpus()
 
     if backend == "mujoco":
         from batchveh.engines.mujoco import default_threads
@@ -266,22 +300,33 @@ def estimate(backend: str, variant_steps: int, tyre: str = "slip") -> tuple[floa
         import jax
 
         gpus = 1 if backend == "warp" else len(jax.devices())
-        rate, where, compile_s = RATE_PER_GPU[tyre][backend] * gpus, f"{gpus} GPU", COMPILE_S[f"{backend}-gpu"]
+        compile_s = WARM_START_S if caches_warm(backend) else COMPILE_S[f"{backend}-gpu"]
+        rate, where = RATE_PER_GPU[tyre][backend] * gpus, f"{gpus} GPU"
     else:
         cores = os.cpu_count() or 1
         rate, where, compile_s = RATE_PER_CPU[backend] * cores, f"{cores} CPU cores", COMPILE_S[f"{backend}-cpu"]
-    return compile_s + variant_steps / rate, f"{backend} on {where}, about {rate:.2g} variant-steps/s"
+    simulate = variant_steps / rate
+    if backend != "mujoco" and has_gpu():  # hidden behind the GPU but for the first chunk, or where it is longer
+        first = prepare * min(1.0, chunk / structural) if structural else 0.0
+        prepare = max(first, prepare - simulate)
+    basis = f"{backend} on {where}, about {rate:.2g} variant-steps/s"
+    if structural:
+        basis += f", {prepare:.0f} s preparing the vehicle variants"
+    return compile_s + simulate + prepare, basis
 
 
 def dry_run(spec: SweepSpec, limit: int | None, backend: str, max_variants: int = MAX_VARIANTS) -> str:
     """Variant count and a rough memory and time estimate, without building the variants."""
     from batchveh.engines import resolve_backend
-    from batchveh.engines.common import CPU_CHUNK
+    from batchveh.engines.common import CPU_CHUNK, auto_chunk
+    from batchveh.model.params import structural
 
     n = count_variants(spec, limit, max_variants)
     backend = resolve_backend(backend)
     steps = spec.scenario.n_steps
-    seconds, basis = estimate(backend, n * steps, spec.vehicle.tyre.model)
+    vehicle = n if structural(spec.params, spec.vehicle) else 0
+    chunk = spec.chunk_size or auto_chunk(backend, n)
+    seconds, basis = estimate(backend, n * steps, spec.vehicle.tyre.model, vehicle, chunk)
     # about 0.2 MB per variant of a MuJoCo C chunk (records of a 100-step block, statistics)
     mem_mb = min(n, CPU_CHUNK["mujoco"]) * 0.2 + 200 if backend == "mujoco" else min(n, 131072) * 0.02 + 500
     design = ""

@@ -39,6 +39,7 @@ CORNER_SIGNS = {"lf": (1, 1), "rf": (1, -1), "lr": (-1, 1), "rr": (-1, -1)}
 MOTORS = tuple(f"drive_{c}" for c in CORNERS) + tuple(f"steer_{c}" for c in CORNERS)
 CHANNELS = (*MOTORS, "drive_sum")  # the torques the statistics reduce: 8 motors and the four-wheel drive sum
 GROUND = "ground"
+PAYLOAD_RADIUS = 0.02  # m, the payload's sphere (its inertia is 2/5 m r^2 about its centre)
 
 
 @dataclass(frozen=True)
@@ -84,7 +85,11 @@ class Hub:
 
 @dataclass(frozen=True)
 class Payload:
-    """A point-like payload fixed to the chassis; position relative to the chassis centre."""
+    """A point-like payload fixed to the chassis; position relative to the chassis centre.
+
+    It is a body of its own welded to the chassis (no joint): every body's mass, centre and inertia
+    is then one geom's, with no principal-axes decomposition, so a sweep derives them in closed form
+    (`stepping/fields.py`); the dynamics are those of one rigid chassis with the payload on it."""
 
     mass: float = field(0.0, unit="kg", ge=0)
     x: float = field(0.0, unit="m")
@@ -226,6 +231,11 @@ def contact_time_constant(cm: ContactModel, time_step: float) -> float:
 
 
 def _fmt(*xs: float) -> str:
+    """Numbers for MJCF, to 10 significant digits (`stepping/fields.py` rounds its closed forms alike).
+
+    Kept at 10 digits: with every bit (repr) the seed's hub offset -0.074 reads -0.07400000000000001,
+    and that alone moved the warp engine against MuJoCo C on a rigid step climb from within 0.2% to
+    0.65% in drive work (tests/test_course.py): the step's contacts amplify the last bits."""
     return " ".join(f"{x:.10g}" for x in xs)
 
 
@@ -270,7 +280,7 @@ def mjcf(
         wheel_type, wheel_aff = (0, 0) if v.contacts == "ground" else (4, 5)
 
     def wheel_geoms(name: str) -> str:
-        cyl = f'type="cylinder" size="{_fmt(w.radius, w.width / 2)}" zaxis="0 1 0" mass="{w.mass:.10g}"'
+        cyl = f'type="cylinder" size="{_fmt(w.radius, w.width / 2)}" zaxis="0 1 0" mass="{_fmt(w.mass)}"'
         if w.collision == "cylinder":
             return (
                 f'<geom name="wheel_{name}" {cyl} contype="{wheel_type}" conaffinity="{wheel_aff}" '
@@ -278,7 +288,7 @@ def mjcf(
             )
         return (
             f'<geom name="wheel_{name}_body" {cyl} contype="0" conaffinity="0" rgba=".1 .1 .1 1"/>'
-            f'<geom name="wheel_{name}" type="sphere" size="{w.radius:.10g}" mass="0" contype="{wheel_type}" '
+            f'<geom name="wheel_{name}" type="sphere" size="{_fmt(w.radius)}" mass="0" contype="{wheel_type}" '
             f'conaffinity="{wheel_aff}" friction="1 0 0" rgba="0 0 0 0"/>'
         )
 
@@ -290,13 +300,13 @@ def mjcf(
         wheel_local = np.array([sx * w.x_cg, sy * w.y_cg]) - axis
         bodies.append(f"""
       <body name="hub_{name}" pos="{_fmt(axis[0] - c.x_cg, axis[1] - c.y_cg, w.radius - c.z_cg)}">
-        <joint name="steer_{name}" type="hinge" axis="0 0 1" armature="{mo.armature:.10g}"/>
+        <joint name="steer_{name}" type="hinge" axis="0 0 1" armature="{_fmt(mo.armature)}"/>
         <geom name="hub_{name}" type="cylinder" size="{_fmt(h.radius, h.length / 2)}"
-              pos="{_fmt(hub_local[0], hub_local[1], 0)}" zaxis="0 1 0" mass="{h.mass:.10g}"
+              pos="{_fmt(hub_local[0], hub_local[1], 0)}" zaxis="0 1 0" mass="{_fmt(h.mass)}"
               contype="{hub_type}" conaffinity="{hub_aff}" rgba=".55 .55 .6 1"/>
         <body name="wheel_{name}" pos="{_fmt(wheel_local[0], wheel_local[1], 0)}">
-          <joint name="drive_{name}" type="hinge" axis="0 1 0" armature="{mo.armature:.10g}"
-                 frictionloss="{rolling:.10g}"/>
+          <joint name="drive_{name}" type="hinge" axis="0 1 0" armature="{_fmt(mo.armature)}"
+                 frictionloss="{_fmt(rolling)}"/>
           {wheel_geoms(name)}
         </body>
       </body>""")
@@ -344,9 +354,12 @@ def mjcf(
       <freejoint name="chassis"/>
       <site name="chassis_centre" size="0.01"/>
       <geom name="chassis" type="box" size="{_fmt(c.length / 2, c.width / 2, c.height / 2)}"
-            mass="{c.mass:.10g}" contype="0" conaffinity="0" rgba=".8 .8 .8 1"/>
-      <geom name="payload" type="sphere" size="0.02" pos="{_fmt(p.x, p.y, p.z)}" mass="{p.mass:.10g}"
-            contype="0" conaffinity="0" rgba=".9 .3 .2 1"/>{"".join(bodies)}
+            mass="{_fmt(c.mass)}" contype="0" conaffinity="0" rgba=".8 .8 .8 1"/>
+{"".join(bodies)}
+      <body name="payload" pos="{_fmt(p.x, p.y, p.z)}">
+        <geom name="payload" type="sphere" size="{_fmt(PAYLOAD_RADIUS)}" mass="{_fmt(p.mass)}"
+              contype="0" conaffinity="0" rgba=".9 .3 .2 1"/>
+      </body>
     </body>
   </worldbody>
   <actuator>

@@ -37,6 +37,7 @@ from batchveh.model.params import GAINS, STATIC, base_params, parameter_specs, s
 from batchveh.model.scenarios import Scenario, gravity_vector
 from batchveh.model.soil import check_ground
 from batchveh.model.vehicle import Vehicle, build_model, layout, rolling_resistance_torque
+from batchveh.stepping import fields as structure
 
 # MjModel fields that are only fast-path flags: 0 ("not the same frame") is always correct
 SAMEFRAME = ("body_sameframe", "geom_sameframe", "site_sameframe")
@@ -226,8 +227,30 @@ def _rolling(model: mujoco.MjModel, p: Mapping[str, np.ndarray], n: int) -> np.n
 
 
 def _structural_fields(vehicle, scenario, model, params, names, fields) -> None:
-    """Compile the vehicle once per distinct combination of `names`; batch the varying fields."""
+    """The varying fields of structural parameters `names`, without a compile per variant (`fields`):
+    the compiler's part in closed form, mj_setConst's by MuJoCo on every thread; the ground's shape
+    compiled once per distinct combination of the names that shape it."""
     varying = varying_fields(vehicle, scenario, names)
+    structure.check_variants(params, names, vehicle)
+    n = len(params[names[0]])
+    inputs = structure.vehicle_inputs(model, params, n)
+    extra: dict[str, np.ndarray] = {}
+    shaping = structure.course_names(names, scenario.obstacle)
+    if shaping:
+        index, models = _compiled_models(vehicle, scenario, params, shaping)
+        extra = structure.course_inputs(model, index, models, inputs)
+    for name in SAMEFRAME:
+        getattr(model, name)[:] = 0  # fast-path flags: off for everyone
+    given = {**inputs, **extra}
+    derived = structure.set_const(model, inputs, [k for k in varying if k not in given and k not in SAMEFRAME], n)
+    for name in varying:
+        if name not in SAMEFRAME:
+            fields[name] = given[name] if name in given else derived[name]
+
+
+def _compiled_models(vehicle, scenario, params, names) -> tuple[np.ndarray, list[mujoco.MjModel]]:
+    """(index (n,), models): the vehicle compiled once per distinct combination of `names`; variant i's
+    is models[index[i]]."""
     combos, index = np.unique(np.stack([params[k] for k in names], axis=1), axis=0, return_inverse=True)
     models = []
     for row in combos:
@@ -237,16 +260,23 @@ def _structural_fields(vehicle, scenario, model, params, names, fields) -> None:
             v.validate("vehicle")
         except ConfigError as err:
             raise ConfigError(f"variant with {values}: {err}") from None
-        models.append(_numeric_fields(model_for(v, sc)))
-    base = _numeric_fields(model)
-    for name in SAMEFRAME:
-        base[name][:] = 0  # fast-path flags: off for everyone
-    for name in base:
+        models.append(model_for(v, sc))
+    return index.ravel(), models
+
+
+def compiled_fields(vehicle, scenario, model, params, names) -> dict[str, np.ndarray]:
+    """The reference for `_structural_fields`: the vehicle compiled once per distinct combination of
+    `names`, every numeric field that differs from `model`'s in some variant, (n, ...) each (the
+    SAMEFRAME flags and the gains aside). About 4 ms a variant; tests/test_fields.py compares."""
+    index, models = _compiled_models(vehicle, scenario, params, names)
+    out = {}
+    for name, base in _numeric_fields(model).items():
         if name in SAMEFRAME or name in ("actuator_gainprm", "actuator_biasprm"):
             continue
-        values = np.stack([m[name] for m in models])
-        if name in varying or not np.array_equal(values, np.broadcast_to(base[name], values.shape)):
-            fields[name] = values[index.ravel()]
+        values = np.stack([getattr(m, name) for m in models])
+        if not np.array_equal(values, np.broadcast_to(base, values.shape)):
+            out[name] = values[index]
+    return out
 
 
 def import_mjx():

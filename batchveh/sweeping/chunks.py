@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import platform
 import time
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
@@ -107,24 +108,58 @@ class ChunkRunner:
         """Variants in chunk `c` (the last one may be short)."""
         return min(self.chunk, self.n - c * self.chunk)
 
-    def run(self, c: int) -> pa.Table:
-        """Chunk `c`'s rows: the variant table's rows, then the statistics columns and `status`."""
+    def prepare(self, c: int) -> tuple[int, pd.DataFrame, Any, float]:
+        """Chunk `c`'s variant rows and batched model, CPU work only (array work and mj_setConst on the
+        CPU threads): a sweep prepares chunk c + 1 while the engine runs chunk c."""
         spec = self.spec
-        rows = self.table.rows(c * self.chunk, c * self.chunk + self.size(c))
         t0 = time.perf_counter()
+        rows = self.table.rows(c * self.chunk, c * self.chunk + self.size(c))
         batch = make_batch(spec.vehicle, spec.scenario, {k: rows[k].to_numpy() for k in spec.params}, spec.params)
         apply_solver(batch.model, spec.solver)
-        res = course.flag(self.engine.run(batch), batch.params, spec.scenario.obstacle)
+        return c, rows, batch, time.perf_counter() - t0
+
+    def finish(self, prepared: tuple[int, pd.DataFrame, Any, float]) -> pa.Table:
+        """The prepared chunk run on the engine: its rows, then the statistics columns and `status`."""
+        c, rows, batch, prepare_s = prepared
+        t0 = time.perf_counter()
+        res = course.flag(self.engine.run(batch), batch.params, self.spec.scenario.obstacle)
         cols = {k: np.asarray(v) for k, v in res.items() if k != "status_code"}
         cols["status"] = [stats.STATUS[int(s)] for s in np.asarray(res["status_code"])]
         frame = pd.concat([rows.reset_index(drop=True), pd.DataFrame(cols)], axis=1)
         meta = {
             **self.meta,
             "chunk": c,
-            "chunk_wall_s": time.perf_counter() - t0,
+            "chunk_wall_s": time.perf_counter() - t0 + prepare_s,
+            "prepare_s": prepare_s,
             "compile_s": self.engine.compile_s,
         }
         return part_table(frame, self.param_units, meta)
+
+    def run(self, c: int) -> pa.Table:
+        """Chunk `c`'s rows: the variant table's rows, then the statistics columns and `status`."""
+        return self.finish(self.prepare(c))
+
+    def run_ahead(
+        self, todo: list[int], phase: Callable[[str], None] = lambda _: None
+    ) -> Iterator[tuple[int, pa.Table]]:
+        """(chunk, table) for each chunk of `todo` in turn, each next chunk prepared on a worker thread
+        while the engine runs the current one (MuJoCo's set_const, JAX and XLA release the GIL).
+        `phase` is told what happens, before each phase ('chunk 2/8: simulating')."""
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(1, thread_name_prefix="batchveh-prepare") as pool:
+            ahead = pool.submit(self.prepare, todo[0]) if todo else None
+            for i, c in enumerate(todo):
+                where = f"chunk {c + 1}/{self.n_chunks}"
+                if not ahead.done():
+                    phase(f"{where}: preparing {self.size(c):,} variants")
+                prepared = ahead.result()
+                ahead = pool.submit(self.prepare, todo[i + 1]) if i + 1 < len(todo) else None
+                first = self.engine.compiles == 0 and self.backend != "mujoco"
+                phase(f"{where}: {'compiling, then ' if first else ''}simulating on {self.backend}")
+                table = self.finish(prepared)
+                phase(f"{where}: writing")
+                yield c, table
 
 
 def versions() -> dict[str, str]:

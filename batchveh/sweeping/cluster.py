@@ -197,10 +197,15 @@ class RayExecutor:
         return first["manifest"], device
 
     def run(
-        self, todo: list[int], finished: Callable[[int, str, dict], None], note: Callable[[str], None]
+        self,
+        todo: list[int],
+        finished: Callable[[int, str, dict], None],
+        note: Callable[[str], None],
+        phase: Callable[[str], None] = lambda _: None,
     ) -> dict[int, str]:
         """Run the chunks in `todo`, one at a time on each worker, calling finished(chunk, part
-        name, record) as each is written; return {chunk: why} for those that kept failing."""
+        name, record) as each is written; return {chunk: why} for those that kept failing. `phase`
+        hears how many chunks are running."""
         import ray
         from ray.exceptions import ActorDiedError, RayActorError, RayError, RayTaskError
 
@@ -213,6 +218,7 @@ class RayExecutor:
             while idle and queue:
                 a, c = idle.popleft(), queue.popleft()
                 running[a.run.remote(c)] = (a, c)
+            phase(f"{len(running)} chunk{'s' * (len(running) > 1)} running on {len(self.actors)} workers")
             if not running:  # every worker is gone for good
                 failed.update({c: "no Ray worker left to run it" for c in queue})
                 break
