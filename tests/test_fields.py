@@ -111,13 +111,10 @@ def test_a_stale_constant_is_caught(monkeypatch):
     """The comparison itself fails where mj_setConst's part is skipped (every derived field stale)."""
     from batchveh.stepping import fields
 
-    monkeypatch.setattr(
-        fields,
-        "set_const",
-        lambda m, inputs, outputs, n, nthread=0: {
-            k: np.broadcast_to(getattr(m, k), (n, *getattr(m, k).shape)).copy() for k in outputs
-        },
-    )
+    def stale(m, inputs, outputs, n, **_):
+        return {k: np.broadcast_to(getattr(m, k), (n, *getattr(m, k).shape)).copy() for k in outputs}
+
+    monkeypatch.setattr(fields, "set_const", stale)
     _, errors = _compare(Vehicle(), make_scenario(), _table(("payload.mass",), n=20))
     assert errors["dof_invweight0"] > 1e3 * FIELD_RTOL and errors["body_subtreemass"] > 1e3 * FIELD_RTOL
 

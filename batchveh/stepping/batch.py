@@ -242,7 +242,8 @@ def _structural_fields(vehicle, scenario, model, params, names, fields) -> None:
     for name in SAMEFRAME:
         getattr(model, name)[:] = 0  # fast-path flags: off for everyone
     given = {**inputs, **extra}
-    derived = structure.set_const(model, inputs, [k for k in varying if k not in given and k not in SAMEFRAME], n)
+    outputs = [k for k in varying if k not in given and k not in SAMEFRAME]
+    derived = structure.set_const(model, inputs, outputs, n, key=repr((vehicle, scenario)))
     for name in varying:
         if name not in SAMEFRAME:
             fields[name] = given[name] if name in given else derived[name]

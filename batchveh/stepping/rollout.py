@@ -117,8 +117,9 @@ def mjx_stats(
     implementation reports it, `solver_limit_share`: the share of steps whose solve ran out of
     iterations.
 
-    data: the initial data (MJX's Warp implementation makes it from the MjModel); default
-    `mjx.make_data(model)`. unroll: steps per iteration of the scan's loop (`lax.scan`'s)."""
+    data: the initial data (MJX's Warp implementation makes it from the base MjModel); default
+    `mjx.make_data(model)`. Either way it starts at the variant's own qpos0 (a swept chassis
+    position moves it). unroll: steps per iteration of the scan's loop (`lax.scan`'s)."""
     dtype = model.opt.timestep.dtype
     health = reports_solver_iterations(model)
 
@@ -130,7 +131,7 @@ def mjx_stats(
         return (d, (stats.update(acc, block, i[None], cfg, xp=jnp), at_limit)), None
 
     body = _scan(model, params, scenario, lay, out)
-    d0 = mjx.make_data(model) if data is None else data
+    d0 = mjx.make_data(model) if data is None else data.replace(qpos=model.qpos0.astype(data.qpos.dtype))
     init = (_init(model, d0), (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
     (_, (acc, at_limit)), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps), unroll=unroll)
     cols = stats.finalize(acc, cfg, xp=jnp)
@@ -154,7 +155,7 @@ def mjx_series(
         return (d, acc), s
 
     body = _scan(model, params, scenario, lay, out)
-    d0 = mjx.make_data(model) if data is None else data
+    d0 = mjx.make_data(model) if data is None else data.replace(qpos=model.qpos0.astype(data.qpos.dtype))
     _, series = jax.lax.scan(body, (_init(model, d0), ()), jnp.arange(n_steps))
     return series
 
