@@ -16,6 +16,13 @@ RAW = "../benchmarks/results"  # the result files, as seen from docs/
 
 # today's results: what each file measured. A file missing here is archived.
 CURRENT = {
+    "h200-structural-sweep.json": "",
+    "cpu-2core-structural-sweep.json": "",
+    "h200-cpu16-structural-prepare.json": "",
+    "cpu-2core-structural-prepare.json": "",
+    "h200-structural-spread.json": "",
+    "h200-structural-resume.json": "",
+    "h200-warp-vs-cpu-2core-c-structural-compare.json": "",
     "h200-tyres.json": "The warp engine, slip tyre and rigid contact side by side",
     "h200-tyres-mjx.json": "MJX's JAX implementation on a GPU, slip tyre and rigid contact",
     "h200-warp-soft.json": "The warp engine, rigid contact (elliptic, impratio 100, impedance 0.25), "
@@ -309,6 +316,44 @@ def bench_section(d: dict, name: str) -> list[str]:
     return out + [f"(raw data: [{name}]({RAW}/{name}))", ""]
 
 
+def structural_section(d: dict, name: str) -> list[str]:
+    """benchmarks/structural.py's parts: a sweep over the vehicle itself (issue 30)."""
+    where = d["machine"].get("gpus") or [f"{d['machine']['cpus']} CPUs"]
+    head = [f"### Sweeps over the vehicle, `structural.py {d['part']}`: {where[0]} ({d['when'][:10]})", ""]
+    link = f"[{name}]({RAW}/{name})"
+    if d["part"] == "prepare":
+        rows = [
+            "| parameters | variants | us a variant | compile per variant (old path), us |",
+            "| --- | --- | --- | --- |",
+        ]
+        rows += [
+            f"| {' + '.join(r['params'])} | {r['n']:,} | {r['us_per_variant']:.1f} | {r['compile_per_variant_us']:.0f} |"
+            for r in d["rows"]
+        ]
+    elif d["part"] == "sweep":
+        rows = ["| sweep | round | process s | sweep s | dry-run estimate s |", "| --- | --- | --- | --- | --- |"]
+        rows += [
+            f"| {r['kind']} | {r['round']} | {r['process_s']:.1f} | {r.get('sweep_s', float('nan')):.1f} | "
+            f"{r['estimate_s']} |"
+            for r in d["runs"]
+        ]
+        rows += [
+            "",
+            f"{d['size']:,} variants x {d['total_time']:g} s; structural / flat (median process): {d['ratio']:.3f}.",
+        ]
+    else:
+        diff = d.get("run_to_run") or d.get("against_uninterrupted") or d.get("per_wheel")
+        keys = [k for k in diff if k.startswith("drive_") and k.endswith(("_mean", "_peak_lp_all", "_rms"))][:12]
+        rows = ["| column | p99 | max |", "| --- | --- | --- |"]
+        rows += [f"| {k} | {diff[k]['p99']:.2g} | {diff[k]['max']:.2g} |" for k in keys]
+        if d["part"] == "resume":
+            rows += [
+                "",
+                f"Killed after {d['parts_at_kill']} parts; the resume ran {d['resume'].get('ran'):,} variants.",
+            ]
+    return [*head, *rows, "", f"Raw: {link}.", ""]
+
+
 def mainjob_section(d: dict, name: str) -> list[str]:
     out = [
         "### The main job, end to end (by the earlier mainjob.py)",
@@ -557,7 +602,9 @@ def render_files(files: list[Path]) -> list[str]:
         if k in ("stages", "scaling", "contact-cost"):
             continue  # grouped below
         d = json.loads(f.read_text())
-        if k == "end-to-end-ab":
+        if k == "structural":
+            out += structural_section(d, f.name)
+        elif k == "end-to-end-ab":
             out += ab_section(d, f.name)
         elif k == "end-to-end":
             out += [end_to_end_section(d, f.name), ""]
@@ -617,6 +664,7 @@ def render_files(files: list[Path]) -> list[str]:
 
 
 KINDS = (
+    "structural",
     "probe",
     "step-profile",
     "warm-compile",

@@ -198,8 +198,9 @@ def sweep(args) -> dict:
 
 def _rows(folder: str):
     """A result folder's rows (or one Parquet file's), in a fixed order."""
-    import batchveh
     import pandas as pd
+
+    import batchveh
 
     rows = pd.read_parquet(folder) if folder.endswith(".parquet") else batchveh.load(folder)
     return rows.sort_values(["slope_deg", "friction", "speed_kmh"]).reset_index(drop=True)
