@@ -17,6 +17,7 @@ import argparse
 import gc
 import os
 import sys
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -32,6 +33,7 @@ from batchveh.sweeping.spec import MAX_VARIANTS, SweepSpec, load_spec, saltelli_
 if TYPE_CHECKING:
     from batchveh.sweeping.cluster import RayExecutor
 
+START_NOTE_S = 2.0  # a sweep's engine start longer than this is named in a line
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_PARTIAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
 
 # Rough rates in variant-steps/s for the dry run's estimate (docs/performance.md). MuJoCo C per thread, the
@@ -201,8 +203,18 @@ def run_sweep(
     if resume and chunk_size is None and executor.spreads:
         # the automatic chunk size follows the number of workers, which may have changed since
         chunk_size = (folder.read_manifest() or {}).get("chunk_size")
+    # the engine's start (imports, the device, Ray's workers) can take several seconds: a line says so,
+    # unless it is done (or refused, in one line of its own) sooner
+    starting = threading.Timer(
+        START_NOTE_S, lambda: print(f"{spec.name}: starting the engine ...", file=sys.stderr, flush=True)
+    )
+    if progress:
+        starting.start()
     try:
-        manifest, device = executor.start(spec, backend or spec.backend, n, chunk_size, folder)
+        try:
+            manifest, device = executor.start(spec, backend or spec.backend, n, chunk_size, folder)
+        finally:
+            starting.cancel()
         backend, chunk = manifest["backend"], manifest["chunk_size"]
         rigid_elliptic = spec.vehicle.tyre.model == "rigid" and spec.vehicle.contact_model.cone == "elliptic"
         if backend == "mjx" and spec.precision == "f32" and rigid_elliptic:
@@ -243,6 +255,7 @@ def run_sweep(
                 bar.update(size[c])
 
             failed = executor.run(todo, finished, note, phase=lambda what: bar.set_postfix_str(what, refresh=True))
+            bar.set_postfix_str("done")
             bar.close()
             wall = time.perf_counter() - t_start
             engine = executor.engine_stats()
