@@ -20,6 +20,7 @@ LAYERS = {
         f"model.{m}"
         for m in (
             "",
+            "motors",
             "vehicle",
             "indexing",
             "tyres",

@@ -1,0 +1,215 @@
+"""DC motors with their gearheads, from datasheet values, as MuJoCo's `dcmotor` actuator (issue 31).
+
+A catalogue entry (`notebooks/motor_catalogue.yaml`) gives a motor as its datasheet does, at the
+motor shaft, and its gearhead. `DCMotor.resolved()` turns it into the constants MuJoCo's dcmotor
+takes (MuJoCo's XML reference, actuator/dcmotor, and its DC motor technical note):
+
+- K (N m/A = V s/rad) and R (Ohm): from `torque_constant` and `terminal_resistance`, or from the
+  nominal triple (voltage V, stall torque, no-load speed): K = V / no_load_speed and R = K V /
+  stall_torque, as MuJoCo's compiler derives them. Where both are given, they must agree within
+  TRIPLE_RTOL (datasheets round), else one line names the contradiction;
+- the current limit (`max_continuous_current`) clips the torque to K i_max;
+- the thermal model: R_T = winding-housing + housing-ambient resistance (K/W), the time constant
+  (the winding's, s) or the capacitance C (J/K), with C = t_T / R_T; copper's temperature
+  coefficient 0.0039 / K against the datasheet's 25 deg C;
+- the gearhead: `gear` = its ratio N; the rotor inertia is MuJoCo's actuator armature, reflected
+  through N^2 at the wheel by MuJoCo.
+
+The gearhead's efficiency eta: MuJoCo's note suggests K -> eta K, which also lowers the back-EMF, so
+the no-load speed would read V / (eta K). Here the motor keeps its K and the simulated motor's
+resistance is R / eta instead: its current i' = eta (v - K w) / R is eta times the real current i, so
+the wheel gets eta N K i, the back-EMF is the real K w (no-load speed V / K exactly), the current
+limit is eta i_max in the simulated current, and the thermal model (heated by i'^2 R / eta = eta i^2
+R) takes R_T / eta and eta C so that the winding heats by the real i^2 R(T). Electrical power is
+v i = v i' / eta; the gearhead loses K i w (1 - eta) while motoring. The same eta acts when the wheel
+drives the motor (regeneration), where a real gearhead loses 1/eta: a known simplification.
+
+Two behaviours of MuJoCo 3.17's dcmotor that sizing must know (measured, tests/test_dcmotor.py rig):
+- `saturation`'s current clips the torque, not the current that heats the winding: a blocked motor at
+  V / R = 20 A with a 4 A limit delivered 4 A's torque and heated with 20 A's i^2 R;
+- the on-board controller's back-EMF compensation uses the resistance at the reference temperature,
+  so a hot winding draws less current (and torque) than commanded: 2.0 -> 1.75 A over 60 s, 20 K.
+
+`dcmotor_xml` writes one actuator: `input="voltage"` (a raw terminal voltage, for the closed-form
+tests) or `input="pos vel"` with the on-board PD controller and the bus voltage as its clamp.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+from batchveh.config import ConfigError, did_you_mean, load_yaml
+
+TRIPLE_RTOL = 0.05  # datasheet rounding: the nominal triple and (R, K) must agree this well
+COPPER_TEMPCOEF = 0.0039  # 1/K, copper's resistance against temperature
+REFERENCE_TEMP = 25.0  # deg C: datasheets give R at 25 deg C
+
+
+@dataclass(frozen=True)
+class DCMotor:
+    """One motor and its gearhead, datasheet values at the motor shaft (SI units)."""
+
+    name: str
+    nominal_voltage: float | None = None  # V
+    terminal_resistance: float | None = None  # Ohm
+    torque_constant: float | None = None  # N m/A
+    stall_torque: float | None = None  # N m
+    no_load_speed: float | None = None  # rad/s
+    rotor_inertia: float = 0.0  # kg m^2
+    max_continuous_current: float | None = None  # A
+    thermal_resistance_winding_housing: float | None = None  # K/W
+    thermal_resistance_housing_ambient: float | None = None  # K/W
+    thermal_time_constant_winding: float | None = None  # s
+    thermal_capacitance: float | None = None  # J/K
+    max_winding_temperature: float | None = None  # deg C
+    ambient_temperature: float = 25.0  # deg C
+    gear_ratio: float = 1.0  # reduction N: wheel speed = motor speed / N
+    gear_efficiency: float = 1.0
+    bus_voltage: float | None = None  # V, the driver's supply (default: nominal_voltage)
+
+    def resolved(self, where: str = "motor") -> dict[str, float]:
+        """K, R, V (the bus), i_max, R_T, C, t_T, N and the rotor inertia; one ConfigError line for
+        values that are impossible or contradict each other."""
+        w = f"{where} {self.name}"
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name != "name" and value is not None and not (isinstance(value, int | float) and math.isfinite(value)):
+                raise ConfigError(f"{w}: {f.name}: {value!r} is not a number; allowed: a finite number")
+        for key in (
+            "nominal_voltage",
+            "terminal_resistance",
+            "torque_constant",
+            "stall_torque",
+            "no_load_speed",
+            "max_continuous_current",
+            "thermal_resistance_winding_housing",
+            "thermal_resistance_housing_ambient",
+            "thermal_time_constant_winding",
+            "thermal_capacitance",
+            "gear_ratio",
+            "bus_voltage",
+        ):
+            value = getattr(self, key)
+            if value is not None and value <= 0:
+                raise ConfigError(f"{w}: {key}: {value!r} is not allowed; allowed: > 0")
+        if self.rotor_inertia < 0:
+            raise ConfigError(f"{w}: rotor_inertia: {self.rotor_inertia!r} is not allowed; allowed: >= 0 kg m^2")
+        if not 0 < self.gear_efficiency <= 1:
+            raise ConfigError(f"{w}: gear_efficiency: {self.gear_efficiency!r} is not allowed; allowed: 0 < value <= 1")
+        v, tau0, w0 = self.nominal_voltage, self.stall_torque, self.no_load_speed
+        triple = None not in (v, tau0, w0)
+        k, r = self.torque_constant, self.terminal_resistance
+        if triple:
+            k_t, r_t = v / w0, (v / w0) * v / tau0
+            for key, given, derived, how in (
+                ("torque_constant", k, k_t, "V / no_load_speed"),
+                ("terminal_resistance", r, r_t, "K V / stall_torque"),
+            ):
+                if given is not None and abs(given - derived) > TRIPLE_RTOL * derived:
+                    raise ConfigError(
+                        f"{w}: {key}: {given:.6g} contradicts the datasheet triple (nominal_voltage {v:g} V, "
+                        f"stall_torque {tau0:g} N m, no_load_speed {w0:g} rad/s), which gives {derived:.6g} ({how}); "
+                        f"allowed: values within {TRIPLE_RTOL:.0%} of each other"
+                    )
+            k, r = k if k is not None else k_t, r if r is not None else r_t
+        if k is None or r is None:
+            raise ConfigError(
+                f"{w}: needs torque_constant and terminal_resistance, or nominal_voltage, stall_torque and "
+                "no_load_speed; allowed: either set"
+            )
+        bus = self.bus_voltage or v
+        if bus is None:
+            raise ConfigError(f"{w}: bus_voltage: missing, and no nominal_voltage; allowed: a voltage > 0")
+        r_th = None
+        if self.thermal_resistance_winding_housing is not None or self.thermal_resistance_housing_ambient is not None:
+            r_th = (self.thermal_resistance_winding_housing or 0.0) + (self.thermal_resistance_housing_ambient or 0.0)
+        t_th, c_th = self.thermal_time_constant_winding, self.thermal_capacitance
+        if (t_th is not None or c_th is not None) and r_th is None:
+            key = "thermal_time_constant_winding" if t_th is not None else "thermal_capacitance"
+            raise ConfigError(
+                f"{w}: {key}: given with no thermal resistance, so the winding's heating is undefined; allowed: "
+                "thermal_resistance_winding_housing and thermal_resistance_housing_ambient (K/W) with it"
+            )
+        if r_th is not None and t_th is None and c_th is None:
+            raise ConfigError(
+                f"{w}: thermal resistance given with neither thermal_time_constant_winding nor thermal_capacitance; "
+                "allowed: one of them (s or J/K)"
+            )
+        if r_th is not None:
+            c_th = c_th if c_th is not None else t_th / r_th
+            t_th = r_th * c_th
+        return {
+            "K": k,
+            "R": r,
+            "V": bus,
+            "i_max": self.max_continuous_current or 0.0,
+            "R_T": r_th or 0.0,
+            "C": c_th or 0.0,
+            "t_T": t_th or 0.0,
+            "N": self.gear_ratio,
+            "eta": self.gear_efficiency,
+            "J": self.rotor_inertia,
+            "T_amb": self.ambient_temperature,
+            "T_max": self.max_winding_temperature if self.max_winding_temperature is not None else math.inf,
+        }
+
+
+def _fmt(*xs: float) -> str:
+    return " ".join(f"{x:.10g}" for x in xs)
+
+
+def dcmotor_xml(
+    name: str, joint: str, motor: DCMotor, *, kp: float = 0.0, kd: float = 0.0, voltage: bool = False
+) -> str:
+    """MJCF of one `dcmotor` on `joint`. voltage True: a raw terminal voltage input (ctrl = V);
+    else `input="pos vel"` (ctrl = the motor-side angle and speed setpoints, N x the wheel's) with
+    the PD gains kp, kd given at the joint (N m/rad, N m s/rad: divided by N^2 for the motor side),
+    and the bus voltage clamping the drive voltage. The gearhead's efficiency: the module's note."""
+    c = motor.resolved()
+    n, eta = c["N"], c["eta"]
+    thermal = ""
+    if c["R_T"] > 0:
+        thermal = f' thermal="{_fmt(c["R_T"] / eta, eta * c["C"], 0, COPPER_TEMPCOEF, REFERENCE_TEMP, c["T_amb"])}"'
+    saturation = f' saturation="0 {_fmt(eta * c["i_max"])} 0"' if c["i_max"] > 0 else ""
+    if voltage:
+        control = ' input="voltage"'
+    else:
+        control = f' input="pos vel" controller="{_fmt(kp / n**2, 0, kd / n**2, 0, 0, c["V"])}"'
+    return (
+        f'<dcmotor name="{name}" joint="{joint}" gear="{_fmt(n)}" armature="{_fmt(c["J"])}" '
+        f'resistance="{_fmt(c["R"] / eta)}" motorconst="{_fmt(c["K"])}"{saturation}{thermal}{control}/>'
+    )
+
+
+def load_catalogue(path: str | Path) -> dict[str, DCMotor]:
+    """The motors of a catalogue YAML (a list under `motors:`, each a mapping of DCMotor's fields, the
+    gearhead nested under `gearhead:` with `ratio` and `efficiency`), by name."""
+    data = load_yaml(path)
+    known = {f.name for f in fields(DCMotor)}
+    out: dict[str, DCMotor] = {}
+    for i, raw in enumerate(data.get("motors") or []):
+        where = f"{path}: motors[{i}]"
+        entry: dict[str, Any] = {k: v for k, v in raw.items() if k in known}
+        gear = raw.get("gearhead") or {}
+        if "ratio" in gear:
+            entry["gear_ratio"] = float(gear["ratio"])
+        if "efficiency" in gear:
+            entry["gear_efficiency"] = float(gear["efficiency"])
+        if "name" not in entry:
+            raise ConfigError(f"{where}: name: missing; allowed: a unique name")
+        motor = DCMotor(**entry)
+        motor.resolved(where)
+        out[motor.name] = motor
+    return out
+
+
+def pick(catalogue: dict[str, DCMotor], name: str, where: str) -> DCMotor:
+    """The catalogue's motor `name`, or one ConfigError line with did-you-mean."""
+    if name not in catalogue:
+        raise ConfigError(
+            f"{where}: {name!r} is not in the catalogue{did_you_mean(name, catalogue)}; allowed: {', '.join(catalogue)}"
+        )
+    return catalogue[name]

@@ -1,0 +1,164 @@
+"""A catalogue motor as MuJoCo's dcmotor (batchveh/model/motors.py) against closed forms, on MuJoCo C.
+
+The rig: one wheel (a 3 kg cylinder of radius 0.2 m) on a hinge, no gravity, no ground, driven by
+the motor through its gearhead. Closed forms from MuJoCo's DC motor technical note and the one-node
+thermal model, solved by scipy.
+"""
+
+import mujoco
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from batchveh.config import ConfigError
+from batchveh.model.motors import COPPER_TEMPCOEF, REFERENCE_TEMP, DCMotor, dcmotor_xml, pick
+
+V, R, K, N, ETA = 24.0, 1.2, 0.05, 20.0, 0.8
+MOTOR = DCMotor(
+    "test-motor",
+    nominal_voltage=V,
+    terminal_resistance=R,
+    torque_constant=K,
+    thermal_resistance_winding_housing=2.0,
+    thermal_resistance_housing_ambient=4.0,
+    thermal_time_constant_winding=30.0,
+    gear_ratio=N,
+    gear_efficiency=ETA,
+    rotor_inertia=1e-5,
+)
+# the issue's bounds, and regression bounds a few times what this project's 2-core machine measured
+SPEED_RTOL, SPEED_REGRESSION = 5e-3, 1e-9  # measured 7e-15
+STALL_RTOL, STALL_REGRESSION = 5e-3, 1e-3  # measured 2.6e-4 (voltage-limited, 0.1 s after the start), 2e-16
+THERMAL_RTOL, THERMAL_REGRESSION = 1e-2, 1e-4  # of the final rise: measured 1.1e-5 (9.2e-4 K of 82 K)
+ENERGY_RTOL, ENERGY_REGRESSION = 5e-3, 3e-3  # measured 1.4e-3 (sums of 1 ms steps) and 3.1e-4 (work)
+
+
+def _rig(motor: DCMotor, *, locked=False, damping=0.0, dt=1e-3) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    lock = '<equality><joint joint1="w" polycoef="0 0 0 0 0"/></equality>' if locked else ""
+    m = mujoco.MjModel.from_xml_string(f"""<mujoco>
+  <option timestep="{dt}" integrator="implicitfast" gravity="0 0 0"/>
+  <worldbody><body><joint name="w" type="hinge" axis="0 1 0" damping="{damping}"/>
+    <geom type="cylinder" size=".2 .05" zaxis="0 1 0" mass="3"/></body></worldbody>
+  {lock}<actuator>{dcmotor_xml("m", "w", motor, voltage=True)}</actuator>
+</mujoco>""")
+    return m, mujoco.MjData(m)
+
+
+def test_a_free_wheel_reaches_the_no_load_speed():
+    """V / (K N) at the wheel, the gearhead's efficiency aside (it acts on torque, not on the back-EMF)."""
+    m, d = _rig(MOTOR)
+    d.ctrl[0] = V
+    for _ in range(20_000):
+        mujoco.mj_step(m, d)
+    assert d.qvel[0] == pytest.approx(V / (K * N), rel=min(SPEED_RTOL, SPEED_REGRESSION))
+
+
+@pytest.mark.parametrize("i_max", [None, 4.0])  # voltage-limited (V / R = 20 A), then current-limited
+def test_a_blocked_wheel_gets_the_stall_or_current_limited_torque(i_max):
+    motor = DCMotor(
+        **{
+            **vars(MOTOR),
+            "max_continuous_current": i_max,
+            "thermal_time_constant_winding": None,
+            "thermal_resistance_winding_housing": None,
+            "thermal_resistance_housing_ambient": None,
+        }
+    )
+    m, d = _rig(motor, locked=True)
+    d.ctrl[0] = V
+    for _ in range(100):
+        mujoco.mj_step(m, d)
+    current = V / R if i_max is None else min(V / R, i_max)
+    assert d.qfrc_actuator[0] == pytest.approx(ETA * N * K * current, rel=min(STALL_RTOL, STALL_REGRESSION))
+
+
+def test_the_winding_follows_the_one_node_model_under_a_constant_current():
+    """A blocked motor fed i R(T) (a current-controlled driver in the loop): the winding's rise above
+    ambient against scipy's solution of C dT/dt = i^2 R0 (1 + alpha (T + T_a - T_0)) - T / R_T."""
+    i, dt = 3.0, 1e-3
+    m, d = _rig(MOTOR, locked=True, dt=dt)
+    c = MOTOR.resolved()
+    rise = []
+    for _ in range(int(120 / dt)):
+        r_t = R * (1 + COPPER_TEMPCOEF * (d.act[0] + c["T_amb"] - REFERENCE_TEMP))
+        d.ctrl[0] = i * r_t  # at rest: no back-EMF
+        mujoco.mj_step(m, d)
+        rise.append(d.act[0])
+
+    def dT(_, T):
+        return [(i * i * R * (1 + COPPER_TEMPCOEF * (T[0] + c["T_amb"] - REFERENCE_TEMP)) - T[0] / c["R_T"]) / c["C"]]
+
+    times = dt * np.arange(1, len(rise) + 1)
+    ref = solve_ivp(dT, (0, times[-1]), [0.0], t_eval=times[::1000], rtol=1e-10, atol=1e-12).y[0]
+    got = np.asarray(rise)[::1000]
+    assert ref[-1] > 40  # a real rise: 82 K after 4 thermal time constants
+    assert np.max(np.abs(got - ref)) <= min(THERMAL_RTOL, THERMAL_REGRESSION) * ref[-1]
+
+
+def test_electrical_energy_is_work_copper_and_gearhead_loss():
+    """A wheel spun up against viscous damping under a voltage step and a reversal (regeneration):
+    the energy drawn v i equals the work at the wheel, the copper's i^2 R(T) and the gearhead's
+    K i w_motor (1 - eta); the work at the wheel equals its kinetic energy and the damping's loss."""
+    dt, b = 1e-3, 0.05
+    m, d = _rig(MOTOR, damping=b, dt=dt)
+    c = MOTOR.resolved()
+    drawn = work = copper = gear = damped = 0.0
+    for k in range(int(8 / dt)):
+        d.ctrl[0] = V if k * dt < 5 else -0.5 * V
+        w_before = d.qvel[0]
+        mujoco.mj_step(m, d)
+        w = 0.5 * (w_before + d.qvel[0])
+        current = d.actuator_force[0] / c["K"] / ETA  # the real current: i' / eta (module's note)
+        r_t = R * (1 + COPPER_TEMPCOEF * (d.act[0] + c["T_amb"] - REFERENCE_TEMP))
+        drawn += d.ctrl[0] * current * dt
+        work += d.qfrc_actuator[0] * w * dt
+        copper += current * current * r_t * dt
+        gear += c["K"] * current * N * w * (1 - ETA) * dt
+        damped += b * w * w * dt
+    mujoco.mj_forward(m, d)
+    kinetic = 0.5 * d.M[0] * d.qvel[0] ** 2  # the wheel's inertia and the rotor's, reflected through N^2
+    assert drawn == pytest.approx(work + copper + gear, rel=min(ENERGY_RTOL, ENERGY_REGRESSION))
+    assert work == pytest.approx(kinetic + damped, rel=min(ENERGY_RTOL, ENERGY_REGRESSION))
+    assert gear > 0.05 * drawn and copper > 0.05 * drawn  # both losses are there to be counted
+
+
+@pytest.mark.parametrize(
+    "fields, words",
+    [
+        (
+            {
+                "nominal_voltage": 24,
+                "stall_torque": 2.0,
+                "no_load_speed": 480,
+                "terminal_resistance": 1.2,
+                "torque_constant": 0.05,
+            },
+            ["terminal_resistance: 1.2 contradicts the datasheet triple", "gives 0.6", "5%"],
+        ),
+        (
+            {"terminal_resistance": -1.2, "torque_constant": 0.05, "nominal_voltage": 24},
+            ["terminal_resistance: -1.2 is not allowed", "> 0"],
+        ),
+        (
+            {
+                "terminal_resistance": 1.2,
+                "torque_constant": 0.05,
+                "nominal_voltage": 24,
+                "thermal_time_constant_winding": 30.0,
+            },
+            ["thermal_time_constant_winding", "no thermal resistance"],
+        ),
+    ],
+)
+def test_an_impossible_motor_is_one_line(fields, words):
+    with pytest.raises(ConfigError) as err:
+        DCMotor("bad", **fields).resolved("catalogue")
+    text = str(err.value)
+    assert "\n" not in text and "catalogue bad" in text and all(w in text for w in words), text
+
+
+def test_an_unknown_motor_name_suggests_the_nearest():
+    with pytest.raises(ConfigError) as err:
+        pick({"maxon-EC45": MOTOR, "maxon-RE40": MOTOR}, "maxon-EC46", "motors.drive")
+    text = str(err.value)
+    assert "\n" not in text and "did you mean 'maxon-EC45'" in text and "allowed: maxon-EC45, maxon-RE40" in text
