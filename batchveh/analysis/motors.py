@@ -159,3 +159,117 @@ def smallest(df: pd.DataFrame, catalogue: list[Motor], span: str | None = None) 
     summary = pd.DataFrame(rows).sort_values("continuous_torque").reset_index(drop=True)
     fitting = [m for m in sorted(catalogue, key=lambda m: m.continuous_torque) if checks[m.name].fits.all()]
     return (fitting[0] if fitting else None), summary
+
+
+# --- DC motors from datasheets (batchveh.model.motors): the fast screen, with the reason of each failure ---
+
+REASONS = ("rms", "thermal", "voltage", "speed", "gear_torque", "gear_speed")
+REASON_TEXT = {
+    "rms": "RMS current above the continuous current",
+    "thermal": "steady winding temperature above its maximum (one-node model with R(T))",
+    "voltage": "the peak torque at speed needs more than the bus voltage (the voltage line)",
+    "speed": "the wheel speed needs more than the no-load speed at the bus voltage",
+    "gear_torque": "wheel torque above the gearhead's continuous or intermittent rating",
+    "gear_speed": "motor speed above the gearhead's input speed",
+}
+
+
+def demand(df: pd.DataFrame, group: str = "drive", span: str | None = None) -> pd.DataFrame:
+    """Each variant's demand on the worst of the group's four motors, at the wheel: RMS and peak torque
+    (N m), and speed (rad/s): the steady window's RMS, the whole run's low-pass peak and the mean
+    wheel speed; or a mission span's RMS, peak and peak speed."""
+    names = GROUPS[group]
+    out = pd.DataFrame(index=df.index)
+    if span is None:
+        out["rms"] = df[[f"{m}_rms" for m in names]].abs().max(axis=1)
+        out["peak"] = df[[f"{m}_peak_lp_all" for m in names]].abs().max(axis=1)
+        out["speed"] = df["wheel_speed"].abs() if group == "drive" else 0.0
+    else:
+        out["rms"] = df[[f"{span}_{m}_rms" for m in names]].abs().max(axis=1)
+        out["peak"] = df[[f"{span}_{m}_peak_lp" for m in names]].abs().max(axis=1)
+        out["speed"] = df[[f"{span}_{m}_speed_peak" for m in names]].abs().max(axis=1)
+    return out
+
+
+def screen_one(need: pd.DataFrame, motor: Any, *, armature: float = 0.0, accel: Any = 0.0) -> pd.DataFrame:
+    """Per variant, whether `motor` (a batchveh.model.motors.DCMotor with its gearhead) covers the demand
+    `need` (`demand`'s columns), and why not (one boolean column per REASONS entry, True = fails).
+
+    The demand was simulated with an ideal servo whose reflected inertia was `armature` (kg m^2 at
+    the wheel: the vehicle's motors.armature); the candidate's rotor reflects J N^2, so its peak
+    torque is the demand's plus (J N^2 - armature) x `accel` (rad/s^2 at the wheel, each variant's
+    own, e.g. its speed over its ramp time). At the motor: i = T / (eta N K); the voltage at the peak
+    v = i_peak R + K N w (the peak taken at the variant's speed: conservative); the winding's steady
+    rise dT = R_T i_rms^2 R0 (1 + alpha (T_a + dT - 25)), solved in closed form (runaway where
+    R_T i^2 R0 alpha >= 1)."""
+    from batchveh.model.motors import COPPER_TEMPCOEF, REFERENCE_TEMP
+
+    c = motor.resolved()
+    n, eta, k, r = c["N"], c["eta"], c["K"], c["R"]
+    peak = need["peak"] + np.maximum(c["J"] * n * n - armature, 0.0) * np.abs(accel)
+    i_rms, i_peak = need["rms"] / (eta * n * k), peak / (eta * n * k)
+    w_motor = need["speed"] * n
+    out = pd.DataFrame(index=need.index)
+    out["current_rms"], out["current_peak"], out["motor_speed"] = i_rms, i_peak, w_motor
+    out["voltage_peak"] = i_peak * r + k * w_motor
+    heat = c["R_T"] * i_rms**2 * r
+    denominator = 1 - heat * COPPER_TEMPCOEF
+    rise = np.where(denominator > 0, heat * (1 + COPPER_TEMPCOEF * (c["T_amb"] - REFERENCE_TEMP)) / denominator, np.inf)
+    out["winding_temperature"] = c["T_amb"] + rise if c["R_T"] > 0 else np.nan
+    out["rms"] = i_rms > c["i_max"] if c["i_max"] > 0 else False
+    out["thermal"] = out["winding_temperature"] > c["T_max"] if c["R_T"] > 0 else False
+    out["voltage"] = out["voltage_peak"] > c["V"]
+    out["speed"] = w_motor > c["V"] / k
+    gear_torque = np.zeros(len(need), bool)
+    if motor.gear_max_continuous_torque is not None:
+        gear_torque |= need["rms"].to_numpy() > motor.gear_max_continuous_torque
+    if motor.gear_max_intermittent_torque is not None:
+        gear_torque |= peak.to_numpy() > motor.gear_max_intermittent_torque
+    out["gear_torque"] = gear_torque
+    out["gear_speed"] = w_motor > motor.gear_max_input_speed if motor.gear_max_input_speed is not None else False
+    out["fits"] = ~out[list(REASONS)].any(axis=1)
+    return out
+
+
+def screen(
+    df: pd.DataFrame,
+    catalogue: dict[str, Any],
+    *,
+    share: float = 0.99,
+    group: str = "drive",
+    span: str | None = None,
+    armature: float = 0.0,
+    accel: Any = 0.0,
+    params: list[str] | None = None,
+) -> tuple[str | None, pd.DataFrame, dict[str, pd.DataFrame]]:
+    """The fast screen of a sweep's ideal-servo demand against DC motors with their gearheads.
+
+    Returns (the smallest candidate that covers at least `share` of the variants, by its continuous
+    torque at the wheel eta N K i_cont, or None; one row per candidate with its coverage and the count
+    of variants failing for each reason; per candidate, the failing variants: `params` columns of
+    `df` (default: every column not a statistic) and the reasons they fail)."""
+    if not 0 < share <= 1:
+        raise ConfigError(f"share: {share!r} is not allowed; allowed: 0 < share <= 1")
+    need = demand(df, group, span)
+    if params is None:
+        from batchveh.model.params import parameter_specs
+
+        params = [col for col in df.columns if col in parameter_specs()]
+    keep = list(params)
+    rows, failing = [], {}
+    for name, motor in catalogue.items():
+        c = motor.resolved(name)
+        res = screen_one(need, motor, armature=armature, accel=accel)
+        row = {
+            "motor": name,
+            "gear_ratio": c["N"],
+            "continuous_torque_at_wheel": c["eta"] * c["N"] * c["K"] * c["i_max"] if c["i_max"] else np.nan,
+            "coverage": float(res["fits"].mean()),
+            **{f"fails_{why}": int(res[why].sum()) for why in REASONS},
+        }
+        rows.append(row)
+        bad = ~res["fits"]
+        failing[name] = pd.concat([df.loc[bad, keep], res.loc[bad, list(REASONS)]], axis=1)
+    table = pd.DataFrame(rows).sort_values("continuous_torque_at_wheel").reset_index(drop=True)
+    ok = table[table["coverage"] >= share]
+    return (ok["motor"].iloc[0] if len(ok) else None), table, failing

@@ -68,6 +68,9 @@ class DCMotor:
     ambient_temperature: float = 25.0  # deg C
     gear_ratio: float = 1.0  # reduction N: wheel speed = motor speed / N
     gear_efficiency: float = 1.0
+    gear_max_continuous_torque: float | None = None  # N m at the gearhead's output
+    gear_max_intermittent_torque: float | None = None  # N m at the gearhead's output
+    gear_max_input_speed: float | None = None  # rad/s at the gearhead's input (the motor)
     bus_voltage: float | None = None  # V, the driver's supply (default: nominal_voltage)
 
     def resolved(self, where: str = "motor") -> dict[str, float]:
@@ -84,6 +87,9 @@ class DCMotor:
             "torque_constant",
             "stall_torque",
             "no_load_speed",
+            "gear_max_continuous_torque",
+            "gear_max_intermittent_torque",
+            "gear_max_input_speed",
             "max_continuous_current",
             "thermal_resistance_winding_housing",
             "thermal_resistance_housing_ambient",
@@ -194,10 +200,15 @@ def load_catalogue(path: str | Path) -> dict[str, DCMotor]:
         where = f"{path}: motors[{i}]"
         entry: dict[str, Any] = {k: v for k, v in raw.items() if k in known}
         gear = raw.get("gearhead") or {}
-        if "ratio" in gear:
-            entry["gear_ratio"] = float(gear["ratio"])
-        if "efficiency" in gear:
-            entry["gear_efficiency"] = float(gear["efficiency"])
+        for key, to in (
+            ("ratio", "gear_ratio"),
+            ("efficiency", "gear_efficiency"),
+            ("max_continuous_torque", "gear_max_continuous_torque"),
+            ("max_intermittent_torque", "gear_max_intermittent_torque"),
+            ("max_input_speed", "gear_max_input_speed"),
+        ):
+            if gear.get(key) is not None:
+                entry[to] = float(gear[key])
         if "name" not in entry:
             raise ConfigError(f"{where}: name: missing; allowed: a unique name")
         motor = DCMotor(**entry)
