@@ -162,3 +162,76 @@ def test_an_unknown_motor_name_suggests_the_nearest():
         pick({"maxon-EC45": MOTOR, "maxon-RE40": MOTOR}, "maxon-EC46", "motors.drive")
     text = str(err.value)
     assert "\n" not in text and "did you mean 'maxon-EC45'" in text and "allowed: maxon-EC45, maxon-RE40" in text
+
+
+# --- the vehicle with its motors as dcmotors (vehicle.motors.model: dcmotor) ---
+
+import dataclasses  # noqa: E402
+
+from batchveh.engines.mujoco import MujocoEngine  # noqa: E402
+from batchveh.model.scenarios import make_scenario  # noqa: E402
+from batchveh.model.vehicle import Motors, Vehicle  # noqa: E402
+from batchveh.stepping import stats  # noqa: E402
+from batchveh.stepping.batch import make_batch  # noqa: E402
+
+SERVO_RTOL = 1e-6  # the issue's bound: limits off, same gains, against the ideal servo
+SERVO_REGRESSION = 1e-11  # measured 3.9e-14 (MuJoCo C, 2 cores): the gains' rounding through N^2
+
+
+def _catalogue(tmp_path, **drive):
+    """A catalogue of two motors with every limit off (24 kV, no current limit, no thermal model) whose
+    rotor reflects the servo's armature 0.2 kg m^2 through the ratio, and efficiency 1."""
+    base = {"nominal_voltage": 24000.0, "terminal_resistance": 0.5, "torque_constant": 0.05, "rotor_inertia": 0.2 / 400}
+    motors = [
+        {"name": "drive-test", **base, "gearhead": {"ratio": 20.0, "efficiency": 1.0}, **drive},
+        {"name": "steer-test", **base, "rotor_inertia": 0.2 / 2500, "gearhead": {"ratio": 50.0, "efficiency": 1.0}},
+    ]
+    import yaml
+
+    path = tmp_path / "catalogue.yaml"
+    path.write_text(yaml.safe_dump({"motors": motors}))
+    return str(path)
+
+
+def _dc_vehicle(path):
+    return dataclasses.replace(
+        Vehicle(), motors=Motors(model="dcmotor", catalogue=path, drive="drive-test", steer="steer-test")
+    )
+
+
+@pytest.mark.parametrize("kind", ["straight_line", "steer_in_place"])
+def test_dcmotors_with_every_limit_off_are_the_servo(tmp_path, kind):
+    sc = make_scenario(kind, total_time=2.0, slope_deg=8.0)
+    table = {"friction": np.array([0.9, 0.6])}
+    cfg = stats.StatsConfig.for_scenario(sc)
+    servo = MujocoEngine(sc, cfg, 2).run(make_batch(Vehicle(), sc, table))
+    dc = MujocoEngine(sc, cfg, 2).run(make_batch(_dc_vehicle(_catalogue(tmp_path)), sc, table))
+    assert (np.asarray(servo["status_code"]) == 0).all()
+    worst = {}
+    for k, v in servo.items():
+        if k.startswith(("drive_", "steer_")) and np.asarray(v).dtype.kind == "f":
+            scale = max(np.max(np.abs(v)), 1e-3)
+            worst[k] = np.max(np.abs(np.asarray(dc[k]) - v)) / scale
+    assert max(worst.values()) <= min(SERVO_RTOL, SERVO_REGRESSION), max(worst.items(), key=lambda kv: kv[1])
+
+
+WARP_SUM_RTOL = 1e-5  # warp (float32) against MuJoCo C: measured 2e-7 on the four-wheel mean (2 cores, warp on CPU)
+WARP_WHEEL_RTOL = 1e-4  # a wheel's mean and peak: measured 1.3e-5
+
+
+@pytest.mark.slow  # about 40 s on 2 cores: Warp builds its kernels for the CPU
+def test_warp_runs_dcmotors_as_mujoco_c_does(tmp_path):
+    """The rotor's inertia sits on the joint (MuJoCo Warp ignores an actuator's armature: there, a
+    wheel's mean read 1% off C's)."""
+    pytest.importorskip("warp")
+    from batchveh.engines.warp import WarpEngine
+
+    v = _dc_vehicle(_catalogue(tmp_path))
+    sc = make_scenario("straight_line", total_time=1.0, slope_deg=8.0)
+    table = {"friction": np.array([0.9, 0.6])}
+    cfg = stats.StatsConfig.for_scenario(sc)
+    w = WarpEngine(sc, cfg, 2).run(make_batch(v, sc, table))
+    c = MujocoEngine(sc, cfg, 2).run(make_batch(v, sc, table))
+    np.testing.assert_allclose(w["drive_sum_mean"], c["drive_sum_mean"], rtol=WARP_SUM_RTOL)
+    for k in ("drive_lf_mean", "drive_rr_mean", "drive_lf_peak_lp_all"):
+        np.testing.assert_allclose(w[k], c[k], rtol=WARP_WHEEL_RTOL, err_msg=k)

@@ -21,6 +21,7 @@ import mujoco
 import numpy as np
 
 from batchveh.model.missions import body_forces_fn
+from batchveh.model.motors import dc_controls
 from batchveh.model.scenarios import Scenario, control_schedule
 from batchveh.model.vehicle import layout
 from batchveh.stepping import stats
@@ -142,6 +143,8 @@ class MujocoEngine:
         params: dict[str, jax.Array] = {}  # filled by the first controls call, off the main thread
         body_mass = np.broadcast_to(batch.fields.get("body_mass", m.body_mass), (batch.n, m.nbody))
         spec = mujoco.mjtState.mjSTATE_CTRL | (mujoco.mjtState.mjSTATE_XFRC_APPLIED if self._forces else 0)
+        theta = np.zeros((batch.n, 4))  # model dcmotor: the drive angle setpoints (motors.dc_controls)
+        ratios = m.actuator_gear[lay.motor_act, 0]
 
         def controls(k):
             # float64, as MuJoCo C steps (the x64 scope is per thread: this worker's own)
@@ -152,11 +155,17 @@ class MujocoEngine:
                 # times padded to one length (one compiled shape); the schedule is element-wise, so
                 # the padding changes none of the other values
                 t = np.append(steps, np.full(longest - len(steps), steps[-1])) * dt
-                ctrl = np.asarray(self._ctrl(params, jnp.asarray(t, jnp.float64)), np.float64)
+                ctrl = np.asarray(self._ctrl(params, jnp.asarray(t, jnp.float64)), np.float64)[:, : len(steps)]
+                sim = ctrl
+                if lay.dcmotor:  # each motor's setpoints; the drive angles carried from block to block
+                    sim = np.empty_like(ctrl)
+                    for j in range(len(steps)):
+                        sim[:, j], theta[:] = dc_controls(ctrl[:, j], theta, ratios, dt, np)
                 if self._forces is not None:  # the rollout's inputs: ctrl, then xfrc_applied
                     xfrc = np.asarray(self._forces(params, body_mass, jnp.asarray(t, jnp.float64)), np.float64)
-                    ctrl = np.concatenate([ctrl, xfrc.reshape(*xfrc.shape[:2], -1)], axis=-1)
-            return steps, np.ascontiguousarray(ctrl[:, : len(steps)])
+                    sim = np.concatenate([sim, xfrc[:, : len(steps)].reshape(*sim.shape[:2], -1)], axis=-1)
+            # the simulation's inputs, and the scenario's controls (the statistics' reference)
+            return steps, (np.ascontiguousarray(sim), ctrl)
 
         def fold(acc, rec, steps, ctrls, failed, first, tile):
             part = {r: v[tile] for r, v in rec.items()}
@@ -191,7 +200,7 @@ class MujocoEngine:
             pending = None
             next_ctrls = pool.submit(controls, 0)
             for k in range(len(edges) - 1):
-                steps, ctrls = next_ctrls.result()
+                steps, (sim, ctrls) = next_ctrls.result()
                 if k + 2 < len(edges):
                     next_ctrls = pool.submit(controls, k + 1)
                 out = {
@@ -199,10 +208,10 @@ class MujocoEngine:
                     for r, f in flat[k % 2].items()
                 }
                 if tyre is not None:
-                    rec = tyre.rollout(ctrls, out)
+                    rec = tyre.rollout(sim, out)
                 else:
                     try:
-                        rec = b.rollout(len(steps), control=ctrls, control_spec=spec, record=tuple(sizes), out=out)
+                        rec = b.rollout(len(steps), control=sim, control_spec=spec, record=tuple(sizes), out=out)
                     except SimulationError:
                         rec = out  # failed simulations are marked below; their records repeat
                 failed = failed | (np.asarray(b.status) != 0) | (b.warning[:, UNSTABLE, 1].sum(-1) > 0)

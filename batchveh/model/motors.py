@@ -167,13 +167,28 @@ def _fmt(*xs: float) -> str:
     return " ".join(f"{x:.10g}" for x in xs)
 
 
+def reflected_inertia(motor: DCMotor) -> float:
+    """The rotor's inertia at the wheel, J N^2 (kg m^2)."""
+    return motor.rotor_inertia * motor.gear_ratio**2
+
+
 def dcmotor_xml(
-    name: str, joint: str, motor: DCMotor, *, kp: float = 0.0, kd: float = 0.0, voltage: bool = False
+    name: str,
+    joint: str,
+    motor: DCMotor,
+    *,
+    kp: float = 0.0,
+    kd: float = 0.0,
+    voltage: bool = False,
+    rotor: bool = True,
 ) -> str:
     """MJCF of one `dcmotor` on `joint`. voltage True: a raw terminal voltage input (ctrl = V);
     else `input="pos vel"` (ctrl = the motor-side angle and speed setpoints, N x the wheel's) with
     the PD gains kp, kd given at the joint (N m/rad, N m s/rad: divided by N^2 for the motor side),
-    and the bus voltage clamping the drive voltage. The gearhead's efficiency: the module's note."""
+    and the bus voltage clamping the drive voltage. The gearhead's efficiency: the module's note.
+    rotor False: no actuator armature; the caller puts `reflected_inertia` on the joint instead
+    (MuJoCo Warp in MJX 3.17 ignores an actuator's armature: with it, a climb's drive torques read
+    1% apart from MuJoCo C's; on the joint both agree within 1e-5)."""
     c = motor.resolved()
     n, eta = c["N"], c["eta"]
     thermal = ""
@@ -185,7 +200,7 @@ def dcmotor_xml(
     else:
         control = f' input="pos vel" controller="{_fmt(kp / n**2, 0, kd / n**2, 0, 0, c["V"])}"'
     return (
-        f'<dcmotor name="{name}" joint="{joint}" gear="{_fmt(n)}" armature="{_fmt(c["J"])}" '
+        f'<dcmotor name="{name}" joint="{joint}" gear="{_fmt(n)}" armature="{_fmt(c["J"] if rotor else 0.0)}" '
         f'resistance="{_fmt(c["R"] / eta)}" motorconst="{_fmt(c["K"])}"{saturation}{thermal}{control}/>'
     )
 
@@ -224,3 +239,18 @@ def pick(catalogue: dict[str, DCMotor], name: str, where: str) -> DCMotor:
             f"{where}: {name!r} is not in the catalogue{did_you_mean(name, catalogue)}; allowed: {', '.join(catalogue)}"
         )
     return catalogue[name]
+
+
+def dc_controls(servo_ctrl, theta, ratios, dt, xp):
+    """The dcmotors' ctrl from the servo's: (ctrl (..., 16), the next step's drive angles (..., 4)).
+
+    servo_ctrl (..., 16) is the scenario's: drive speeds, steering angles, drive speeds again (the
+    servo's integrator input) and steering rates, at the wheel. theta (..., 4): the drives' angle
+    setpoints at this step, the integral of their speeds, as the servo's integrator actuator holds it
+    (theta + dt omega after each step, MuJoCo's update of an integrator's act). ratios (8,): each motor's
+    gear ratio N, MOTORS order. Each motor's ctrl is (N x angle, N x speed): the setpoints at the motor."""
+    omega, alpha, dalpha = servo_ctrl[..., 0:4], servo_ctrl[..., 4:8], servo_ctrl[..., 12:16]
+    pos = xp.concatenate([ratios[:4] * theta, ratios[4:] * alpha], axis=-1)
+    vel = xp.concatenate([ratios[:4] * omega, ratios[4:] * dalpha], axis=-1)
+    ctrl = xp.stack([pos, vel], axis=-1).reshape(*pos.shape[:-1], 16)
+    return ctrl, theta + omega * dt

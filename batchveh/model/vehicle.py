@@ -22,6 +22,7 @@ torque read out is the sum of both actuators on the joint (qfrc_actuator).
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -30,6 +31,7 @@ import mujoco
 import numpy as np
 
 from batchveh.config import ConfigError, field, from_mapping, load_yaml
+from batchveh.model.motors import DCMotor, dcmotor_xml, load_catalogue, pick, reflected_inertia
 from batchveh.model.soil import Soil
 from batchveh.model.tyres import Tyre
 
@@ -113,6 +115,37 @@ class Motors:
     steer_kp: float = field(20000.0, unit="N m/rad", ge=0)
     steer_kv: float = field(300.0, unit="N m s/rad", ge=0)
     armature: float = field(0.2, unit="kg m^2", ge=0, doc="rotor inertia reflected through the gearbox")
+    # 'servo': the ideal PD servo above (the torque demand); 'dcmotor': each motor is MuJoCo's dcmotor, a
+    # catalogue motor with its gearhead (batchveh/model/motors.py) whose on-board PD controller has the
+    # gains above (at the wheel) and the bus voltage as its clamp; its rotor inertia replaces `armature`
+    model: Literal["servo", "dcmotor"] = "servo"
+    catalogue: str = ""  # the DC motor catalogue's path (YAML, model/motors.py's load_catalogue)
+    drive: str = ""  # the drive motors' catalogue name
+    steer: str = ""  # the steering motors' catalogue name
+
+    def validate(self, where: str = "motors") -> None:
+        """With model dcmotor: the catalogue loads and names both motors (one ConfigError line)."""
+        if self.model == "dcmotor":
+            self.dcmotors(where)
+
+    def dcmotors(self, where: str = "motors") -> tuple[DCMotor, DCMotor]:
+        """The (drive, steer) catalogue motors of model dcmotor."""
+        if not self.catalogue:
+            raise ConfigError(f"{where}.catalogue: missing; allowed: the path of a motor catalogue (model: dcmotor)")
+        catalogue = _catalogue(self.catalogue, where)
+        return pick(catalogue, self.drive, f"{where}.drive"), pick(catalogue, self.steer, f"{where}.steer")
+
+
+@functools.lru_cache(maxsize=8)
+def _catalogue_at(path: str, mtime: float) -> dict[str, DCMotor]:
+    return load_catalogue(path)
+
+
+def _catalogue(path: str, where: str) -> dict[str, DCMotor]:
+    try:
+        return _catalogue_at(path, Path(path).stat().st_mtime)
+    except FileNotFoundError:
+        raise ConfigError(f"{where}.catalogue: {path}: file not found; allowed: a motor catalogue's path") from None
 
 
 @dataclass(frozen=True)
@@ -292,6 +325,10 @@ def mjcf(
             f'conaffinity="{wheel_aff}" friction="1 0 0" rgba="0 0 0 0"/>'
         )
 
+    # the rotor's inertia reflected at each joint: the servo's `armature`, or each dcmotor's J N^2
+    steer_armature = drive_armature = mo.armature
+    if mo.model == "dcmotor":
+        drive_armature, steer_armature = (reflected_inertia(x) for x in mo.dcmotors())
     bodies = []
     for name in CORNERS:
         sx, sy = CORNER_SIGNS[name]
@@ -300,33 +337,34 @@ def mjcf(
         wheel_local = np.array([sx * w.x_cg, sy * w.y_cg]) - axis
         bodies.append(f"""
       <body name="hub_{name}" pos="{_fmt(axis[0] - c.x_cg, axis[1] - c.y_cg, w.radius - c.z_cg)}">
-        <joint name="steer_{name}" type="hinge" axis="0 0 1" armature="{_fmt(mo.armature)}"/>
+        <joint name="steer_{name}" type="hinge" axis="0 0 1" armature="{_fmt(steer_armature)}"/>
         <geom name="hub_{name}" type="cylinder" size="{_fmt(h.radius, h.length / 2)}"
               pos="{_fmt(hub_local[0], hub_local[1], 0)}" zaxis="0 1 0" mass="{_fmt(h.mass)}"
               contype="{hub_type}" conaffinity="{hub_aff}" rgba=".55 .55 .6 1"/>
         <body name="wheel_{name}" pos="{_fmt(wheel_local[0], wheel_local[1], 0)}">
-          <joint name="drive_{name}" type="hinge" axis="0 1 0" armature="{_fmt(mo.armature)}"
+          <joint name="drive_{name}" type="hinge" axis="0 1 0" armature="{_fmt(drive_armature)}"
                  frictionloss="{_fmt(rolling)}"/>
           {wheel_geoms(name)}
         </body>
       </body>""")
-    act = []
-    for name in CORNERS:
+    servo = CORNERS if mo.model == "servo" else ()  # model dcmotor: _dcmotors' actuators instead
+    act = [] if servo else _dcmotors(v)
+    for name in servo:
         act.append(
             f'<general name="drive_{name}_v" joint="drive_{name}" gainprm="{mo.drive_kv:.10g}" '
             f'biastype="affine" biasprm="0 0 {-mo.drive_kv:.10g}"/>'
         )
-    for name in CORNERS:
+    for name in servo:
         act.append(
             f'<general name="steer_{name}_p" joint="steer_{name}" gainprm="{mo.steer_kp:.10g}" '
             f'biastype="affine" biasprm="0 {-mo.steer_kp:.10g} 0"/>'
         )
-    for name in CORNERS:
+    for name in servo:
         act.append(
             f'<general name="drive_{name}_p" joint="drive_{name}" dyntype="integrator" '
             f'gainprm="{mo.drive_kp:.10g}" biastype="affine" biasprm="0 {-mo.drive_kp:.10g} 0"/>'
         )
-    for name in CORNERS:
+    for name in servo:
         act.append(
             f'<general name="steer_{name}_v" joint="steer_{name}" gainprm="{mo.steer_kv:.10g}" '
             f'biastype="affine" biasprm="0 0 {-mo.steer_kv:.10g}"/>'
@@ -369,6 +407,19 @@ def mjcf(
 """
 
 
+def _dcmotors(v: Vehicle) -> list[str]:
+    """MJCF of the 8 motors as dcmotors, in MOTORS order, each with ctrl (angle, speed) setpoints at
+    the motor (N x the joint's), and the PD gains given at the wheel."""
+    mo = v.motors
+    drive, steer = mo.dcmotors()
+    act = []
+    for name in CORNERS:  # a towing wheel's gains are zeroed per scenario (batch._gains)
+        act.append(dcmotor_xml(f"drive_{name}", f"drive_{name}", drive, kp=mo.drive_kp, kd=mo.drive_kv, rotor=False))
+    for name in CORNERS:
+        act.append(dcmotor_xml(f"steer_{name}", f"steer_{name}", steer, kp=mo.steer_kp, kd=mo.steer_kv, rotor=False))
+    return act
+
+
 def build_model(v: Vehicle, **kw: Any) -> mujoco.MjModel:
     """Compile the vehicle into an MjModel; keyword arguments go to `mjcf`.
 
@@ -386,10 +437,11 @@ class Layout:
 
     motor_dof: np.ndarray  # (8,) dof of each motor joint, in MOTORS order
     motor_qpos: np.ndarray  # (8,) qpos address of each motor joint
-    drive_vel_act: np.ndarray  # (4,) actuator ids, velocity part of the drives
+    drive_vel_act: np.ndarray  # (4,) actuator ids, velocity part of the drives (servo; empty for dcmotor)
     drive_pos_act: np.ndarray  # (4,) integrator (position) part of the drives
     steer_pos_act: np.ndarray
     steer_vel_act: np.ndarray
+    motor_act: np.ndarray  # (8,) each motor's dcmotor actuator, MOTORS order (model dcmotor; empty for servo)
     ground_geom: int
     wheel_geoms: np.ndarray
     chassis_body: int
@@ -401,6 +453,11 @@ class Layout:
     wheel_ground: str
 
     @property
+    def dcmotor(self) -> bool:
+        """Whether the motors are dcmotors (ctrl: each motor's angle and speed setpoints, at the motor)."""
+        return self.motor_act.size > 0
+
+    @property
     def applied(self) -> bool:
         """Whether the wheels' ground forces are applied by batchveh (slip tyre, soil) each step."""
         return self.wheel_ground != "rigid"
@@ -410,8 +467,11 @@ def layout(m: mujoco.MjModel) -> Layout:
     """Look up the indices batchveh reads and writes, by name."""
     jid = [m.joint(n).id for n in MOTORS]
 
+    names = {m.actuator(i).name for i in range(m.nactuator)}
+    dc = "drive_lf" in names
+
     def acts(kind: str, part: str) -> np.ndarray:
-        return np.array([m.actuator(f"{kind}_{c}_{part}").id for c in CORNERS])
+        return np.array([], int) if dc else np.array([m.actuator(f"{kind}_{c}_{part}").id for c in CORNERS])
 
     return Layout(
         motor_dof=np.array([m.jnt_dofadr[j] for j in jid]),
@@ -420,6 +480,7 @@ def layout(m: mujoco.MjModel) -> Layout:
         drive_pos_act=acts("drive", "p"),
         steer_pos_act=acts("steer", "p"),
         steer_vel_act=acts("steer", "v"),
+        motor_act=np.array([m.actuator(n).id for n in MOTORS]) if dc else np.array([], int),
         ground_geom=m.geom(GROUND).id,
         wheel_geoms=np.array([m.geom(f"wheel_{c}").id for c in CORNERS]),
         chassis_body=m.body("chassis").id,

@@ -61,6 +61,9 @@ def model_for(vehicle: Vehicle, scenario: Scenario) -> mujoco.MjModel:
     return m
 
 
+DC_KP, DC_KD = 4, 6  # a dcmotor's controller gains in actuator_gainprm (MuJoCo 3.17: R, K, alpha, T0, kp, ki, kd, Vmax)
+
+
 def _gains(m: mujoco.MjModel, p: Mapping[str, Any], towing) -> tuple[np.ndarray, np.ndarray]:
     """actuator_gainprm, biasprm (n, nu, 10) for gains in p (arrays of shape (n,) or scalars)."""
     lay = layout(m)
@@ -68,6 +71,17 @@ def _gains(m: mujoco.MjModel, p: Mapping[str, Any], towing) -> tuple[np.ndarray,
     gain = np.broadcast_to(m.actuator_gainprm, (*n, *m.actuator_gainprm.shape)).copy()
     bias = np.broadcast_to(m.actuator_biasprm, (*n, *m.actuator_biasprm.shape)).copy()
     free = np.array([0.0 if tow else 1.0 for tow in towing])
+    if lay.dcmotor:  # the on-board controller's kp and kd, in torque space at the motor: the wheel's / N^2
+        ratio2 = m.actuator_gear[lay.motor_act, 0] ** 2
+        for ids, key, col, scale in (
+            (lay.motor_act[:4], "motors.drive_kp", DC_KP, free),
+            (lay.motor_act[:4], "motors.drive_kv", DC_KD, free),
+            (lay.motor_act[4:], "motors.steer_kp", DC_KP, 1.0),
+            (lay.motor_act[4:], "motors.steer_kv", DC_KD, 1.0),
+        ):
+            n_of = ratio2[:4] if key.startswith("motors.drive") else ratio2[4:]
+            gain[..., ids, col] = np.asarray(p[key], float)[..., None] * scale / n_of
+        return gain, bias
     for ids, key, col, scale in (
         (lay.drive_vel_act, "motors.drive_kv", 2, free),
         (lay.drive_pos_act, "motors.drive_kp", 1, free),

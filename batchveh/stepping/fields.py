@@ -40,7 +40,7 @@ import numpy as np
 from batchveh.config import ConfigError
 from batchveh.model import course
 from batchveh.model.params import parameter_specs
-from batchveh.model.vehicle import CORNER_SIGNS, CORNERS, MOTORS, PAYLOAD_RADIUS, Vehicle
+from batchveh.model.vehicle import CORNER_SIGNS, CORNERS, MOTORS, PAYLOAD_RADIUS, Vehicle, layout
 
 MJEPS = 1e-14  # MuJoCo's mjEPS: a geom lighter than this adds no mass to its body (InertiaFromGeom)
 # the fields `vehicle_inputs` writes; mj_setConst reads them (or they are the compiler's alone)
@@ -125,6 +125,7 @@ def _ids(m: mujoco.MjModel) -> dict[str, np.ndarray | int]:
         "g_contact": np.array([geom(f"wheel_{c}") for c in CORNERS]) if sphere else np.array([], int),
         "free_qpos": int(m.jnt_qposadr[m.joint("chassis").id]),
         "motor_dof": np.array([m.jnt_dofadr[m.joint(name).id] for name in MOTORS]),
+        "servo": not layout(m).dcmotor,
     }
 
 
@@ -240,7 +241,8 @@ def vehicle_inputs(m: mujoco.MjModel, p: Mapping[str, np.ndarray], n: int) -> di
     out["body_ipos"][:, b] = np.where(heavy, 0.0, pos)
     out["body_inertia"][:, b] = np.where(heavy, (2 * pm * PAYLOAD_RADIUS * PAYLOAD_RADIUS / 5)[:, None], 0.0)
 
-    out["dof_armature"][:, ids["motor_dof"]] = g10(col("motors.armature"))[:, None]
+    if ids["servo"]:  # dcmotors put their rotors' J N^2 there, from the catalogue (not swept)
+        out["dof_armature"][:, ids["motor_dof"]] = g10(col("motors.armature"))[:, None]
     return out
 
 

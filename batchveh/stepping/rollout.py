@@ -23,6 +23,7 @@ import numpy as np
 from batchveh.model import wheels
 from batchveh.model.indexing import take
 from batchveh.model.missions import body_forces_fn
+from batchveh.model.motors import dc_controls
 from batchveh.model.scenarios import Scenario, control_schedule, controls_fn
 from batchveh.model.vehicle import Layout, layout
 from batchveh.stepping import stats
@@ -45,8 +46,9 @@ def float_precision(name: str):
 
 
 def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: Layout, body_out):
-    """The scan's body over ((data, tyre state), reductions). `body_out(d, acc, sample, i)` returns
-    ((d, acc), output) as a scan body would."""
+    """The scan's body over ((data, tyre state, drive angle setpoints), reductions). `body_out(d, acc,
+    sample, i)` returns ((d, acc), output) as a scan body would. With dcmotors, the scenario's servo
+    controls become each motor's setpoints (`motors.dc_controls`), the drive angles carried."""
     ctrl_fn = controls_fn(scenario)
     forces_fn = body_forces_fn(scenario)  # a mission's slope in time; None otherwise
     dt = model.opt.timestep
@@ -54,9 +56,14 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
 
     damping = servo_damping(params, scenario.towing, xp=jnp)
 
+    ratios = jnp.asarray(model.actuator_gear[lay.motor_act, 0]) if lay.dcmotor else None
+
     def body(carry, i):
-        (d, ts), acc = carry
+        (d, ts, theta), acc = carry
         ctrl = ctrl_fn(params, i * dt).astype(d.ctrl.dtype)
+        sim_ctrl = ctrl
+        if ratios is not None:
+            sim_ctrl, theta = dc_controls(ctrl, theta, ratios.astype(ctrl.dtype), dt.astype(ctrl.dtype), jnp)
         xfrc = None
         if forces_fn is not None:
             xfrc = forces_fn(params, model.body_mass, i * dt).astype(d.xfrc_applied.dtype)
@@ -66,11 +73,11 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
         if xfrc is not None:
             d = d.replace(xfrc_applied=xfrc)
         qvel_prev = d.qvel
-        d = mjx.step(model, d.replace(ctrl=ctrl))
+        d = mjx.step(model, d.replace(ctrl=sim_ctrl))
         dv = take(d.qvel - qvel_prev, lay.motor_dof)
         s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, params["wheel.radius"], lay, damping, dv)
         (d, acc), out = body_out(d, acc, s, i)
-        return ((d, ts), acc), out
+        return ((d, ts, theta), acc), out
 
     return body
 
@@ -85,10 +92,11 @@ def tyre_step(d: mjx.Data, ts, tp, lay: Layout, dt):
 
 
 def _init(model: mjx.Model, d0: mjx.Data):
-    """The scan's first (data, wheel-ground state). The data is forwarded, as MuJoCo C's is before
-    its first step: a wheel-ground model reads the last forward pass's positions and contact
-    forces, and those of unforwarded data are zeros (the soil saw each wheel sunk to its axle)."""
-    return mjx.forward(model, d0), wheels.init_state((), jnp, d0.qvel.dtype)
+    """The scan's first (data, wheel-ground state, drive angle setpoints). The data is forwarded, as
+    MuJoCo C's is before its first step: a wheel-ground model reads the last forward pass's positions
+    and contact forces, and those of unforwarded data are zeros (the soil saw each wheel sunk to its
+    axle). The drive angle setpoints start at 0, as the servo's integrator actuators do."""
+    return mjx.forward(model, d0), wheels.init_state((), jnp, d0.qvel.dtype), jnp.zeros(4, d0.qvel.dtype)
 
 
 def reports_solver_iterations(model: mjx.Model) -> bool:
@@ -177,10 +185,15 @@ def mujoco_steps(
             forces = np.asarray(jax.jit(jax.vmap(forces_fn, in_axes=(None, None, 0)))(p, m.body_mass, times))
     lay = layout(m)
     tyre = MujocoTyre(m, lay, p) if lay.applied else None
+    sim_ctrls = ctrls
+    if lay.dcmotor:  # the motors' setpoints: the drive angles integrated step by step, as an integrator's act
+        sim_ctrls, theta = np.empty_like(ctrls), np.zeros(4)
+        for i in range(n_steps):
+            sim_ctrls[i], theta = dc_controls(ctrls[i], theta, m.actuator_gear[lay.motor_act, 0], m.opt.timestep, np)
     mujoco.mj_forward(m, d)
     yield d, None
     for i in range(n_steps):
-        d.ctrl[:] = ctrls[i]
+        d.ctrl[:] = sim_ctrls[i]
         xfrc = forces[i] if forces_fn is not None else np.zeros_like(d.xfrc_applied)
         if tyre is not None:
             xfrc = xfrc + tyre.wrench(d.xpos, d.xmat.reshape(-1, 3, 3), d.qvel, d.cfrc_ext, d.xfrc_applied)
