@@ -34,7 +34,9 @@ LAYERS = {
         )
     ),
     # a chunk of variants -> the batched model; the pure step and scan bodies; the reductions in the carry
-    "stepping": tuple(f"stepping.{m}" for m in ("", "fields", "batch", "rollout", "stats", "mission_stats")),
+    "stepping": tuple(
+        f"stepping.{m}" for m in ("", "fields", "batch", "rollout", "stats", "mission_stats", "motor_stats")
+    ),
     "engines": ("engines", "engines.common", "engines.mujoco", "engines.mjx", "engines.warp"),
     # how many variants run, where, and where the results go
     "sweeping": tuple(f"sweeping.{m}" for m in ("", "storage", "spec", "results", "chunks", "cluster")),

@@ -24,7 +24,7 @@ from batchveh.model.missions import body_forces_fn
 from batchveh.model.motors import dc_controls
 from batchveh.model.scenarios import Scenario, control_schedule
 from batchveh.model.vehicle import layout
-from batchveh.stepping import stats
+from batchveh.stepping import motor_stats, stats
 from batchveh.stepping.batch import VariantBatch, servo_damping
 from batchveh.stepping.rollout import MujocoTyre, float_precision
 
@@ -137,6 +137,10 @@ class MujocoEngine:
         first = np.array(b.qvel)[:, lay.motor_dof]
         dt = m.opt.timestep
         sizes = {"qpos": m.nq, "qvel": m.nv, "qfrc_actuator": m.nv, "solver_niter": mujoco.mjNISLAND}
+        if self.cfg.motors is not None:  # the dcmotors' state, for their electrical statistics
+            sizes.update({"actuator_force": m.nactuator, "actuator_velocity": m.nactuator})
+            if m.na:
+                sizes["act"] = m.na
         kinds = {"solver_niter": np.int32}  # the other records are float64
         edges = [*range(0, self.cfg.n_steps, self.block), self.cfg.n_steps]
         longest = int(max(np.diff(edges)))
@@ -170,8 +174,25 @@ class MujocoEngine:
         def fold(acc, rec, steps, ctrls, failed, first, tile):
             part = {r: v[tile] for r, v in rec.items()}
             dv = np.diff(part["qvel"][..., lay.motor_dof], axis=1, prepend=first[tile, None])  # speed change per step
+            motors = None
+            if self.cfg.motors is not None:
+                ids = lay.motor_act
+                motors = motor_stats.sample(
+                    part["actuator_force"][..., ids],
+                    part["actuator_velocity"][..., ids],
+                    part.get("act"),
+                    self.cfg.motors,
+                )
             sample = stats.sample(
-                part["qpos"], part["qvel"], part["qfrc_actuator"], ctrls[tile], radius[tile], lay, damping[tile], dv
+                part["qpos"],
+                part["qvel"],
+                part["qfrc_actuator"],
+                ctrls[tile],
+                radius[tile],
+                lay,
+                damping[tile],
+                dv,
+                motors,
             )
             if failed[tile].any():
                 sample["tau"] = np.where(failed[tile, None, None], np.nan, sample["tau"])
@@ -236,7 +257,8 @@ class _TyreStepper:
     def __init__(self, b, m: mujoco.MjModel, lay, params):
         self.b, self.nu, self.nbody = b, m.nu, m.nbody
         self.tyre = MujocoTyre(m, lay, params)
-        self.live = {k: b.bind(k) for k in ("qpos", "qvel", "qfrc_actuator", "solver_niter")}
+        names = ("qpos", "qvel", "qfrc_actuator", "solver_niter", "actuator_force", "actuator_velocity", "act")
+        self.live = {k: b.bind(k) for k in names}
         self.ctrl, self.xfrc = b.bind("ctrl"), b.bind("xfrc_applied")
         self.xpos, self.xmat, self.cfrc = b.bind("xpos"), b.bind("xmat"), b.bind("cfrc_ext")
 

@@ -28,7 +28,12 @@ Two behaviours of MuJoCo 3.17's dcmotor that sizing must know (measured, tests/t
 - `saturation`'s current clips the torque, not the current that heats the winding: a blocked motor at
   V / R = 20 A with a 4 A limit delivered 4 A's torque and heated with 20 A's i^2 R;
 - the on-board controller's back-EMF compensation uses the resistance at the reference temperature,
-  so a hot winding draws less current (and torque) than commanded: 2.0 -> 1.75 A over 60 s, 20 K.
+  so a hot winding draws less current (and torque) than commanded: 2.0 -> 1.75 A over 60 s, 20 K;
+- with `implicitfast`, the controller's kd is integrated implicitly as the motor's damping even while
+  the voltage is clamped, where the motor's real damping is the back-EMF's N^2 K^2 / R': a clamped
+  wheel of 0.06 kg m^2 (kd 500 N m s/rad at the wheel, 5 ms) gained 0.99 N m's worth of acceleration
+  for the 42 N m it was given. Steady states are right (dv = 0); a clamped motor's transients are
+  slowed (a voltage-limited climb nears its speed in about 2.5 s instead of 1 s).
 
 `dcmotor_xml` writes one actuator: `input="voltage"` (a raw terminal voltage, for the closed-form
 tests) or `input="pos vel"` with the on-board PD controller and the bus voltage as its clamp.

@@ -26,7 +26,7 @@ from batchveh.model.missions import body_forces_fn
 from batchveh.model.motors import dc_controls
 from batchveh.model.scenarios import Scenario, control_schedule, controls_fn
 from batchveh.model.vehicle import Layout, layout
-from batchveh.stepping import stats
+from batchveh.stepping import motor_stats, stats
 from batchveh.stepping.batch import import_mjx, servo_damping
 
 mjx = import_mjx()
@@ -45,7 +45,7 @@ def float_precision(name: str):
     return enable_x64() if name == "f64" else disable_x64()
 
 
-def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: Layout, body_out):
+def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: Layout, body_out, motors=None):
     """The scan's body over ((data, tyre state, drive angle setpoints), reductions). `body_out(d, acc,
     sample, i)` returns ((d, acc), output) as a scan body would. With dcmotors, the scenario's servo
     controls become each motor's setpoints (`motors.dc_controls`), the drive angles carried."""
@@ -75,7 +75,13 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
         qvel_prev = d.qvel
         d = mjx.step(model, d.replace(ctrl=sim_ctrl))
         dv = take(d.qvel - qvel_prev, lay.motor_dof)
-        s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, params["wheel.radius"], lay, damping, dv)
+        electric = None
+        if motors is not None:  # the dcmotors' electrical sample (motor_stats), a block of one step
+            force, speed = take(d.actuator_force, lay.motor_act), take(d.actuator_velocity, lay.motor_act)
+            act = d.act[None] if d.act.shape[-1] else None
+            electric = motor_stats.sample(force[None], speed[None], act, motors, jnp)
+            electric = {k: v[0] for k, v in electric.items()}
+        s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, params["wheel.radius"], lay, damping, dv, electric)
         (d, acc), out = body_out(d, acc, s, i)
         return ((d, ts, theta), acc), out
 
@@ -133,12 +139,12 @@ def mjx_stats(
 
     def out(d, carry, s, i):
         acc, at_limit = carry
-        block = {k: v[None] for k, v in s.items()}  # a block of one step: time axis -2
+        block = jax.tree_util.tree_map(lambda v: v[None], s)  # a block of one step: time axis -2
         if health:
             at_limit = at_limit + solver_at_limit(model, d).astype(jnp.int32)
         return (d, (stats.update(acc, block, i[None], cfg, xp=jnp), at_limit)), None
 
-    body = _scan(model, params, scenario, lay, out)
+    body = _scan(model, params, scenario, lay, out, cfg.motors)
     d0 = mjx.make_data(model) if data is None else data.replace(qpos=model.qpos0.astype(data.qpos.dtype))
     init = (_init(model, d0), (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
     (_, (acc, at_limit)), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps), unroll=unroll)

@@ -37,7 +37,7 @@ from batchveh.config import ConfigError
 from batchveh.model import soil
 from batchveh.model.indexing import take
 from batchveh.model.vehicle import CHANNELS, CORNERS, Vehicle
-from batchveh.stepping import mission_stats
+from batchveh.stepping import mission_stats, motor_stats
 
 N_CH = len(CHANNELS)
 STATUS = {0: "ok", 1: "diverged", 2: "flipped", 3: "stuck", 4: "short"}  # stuck, short: set by course.flag
@@ -71,6 +71,7 @@ class StatsConfig:
     settle_steps: int = 0  # the first steps, left out of every statistic
     mission: mission_stats.MissionStatsConfig | None = None  # a mission's spans (scenario kind mission)
     slip_limit: float = SLIP_LIMIT  # |slip ratio| above which the variant is flagged as slipping
+    motors: motor_stats.MotorStatsConfig | None = None  # dcmotors' constants (vehicle.motors.model dcmotor)
 
     @staticmethod
     def make(
@@ -129,7 +130,9 @@ class StatsConfig:
         return max(1, math.ceil(self.window_steps / self.stride))
 
 
-def sample(qpos, qvel, qfrc_actuator, ctrl, wheel_radius, lay, damping=None, motor_dv=None) -> dict[str, Any]:
+def sample(
+    qpos, qvel, qfrc_actuator, ctrl, wheel_radius, lay, damping=None, motor_dv=None, motors=None
+) -> dict[str, Any]:
     """The quantities `update` folds, read from MuJoCo state arrays of any leading shape.
 
     qpos, qvel, qfrc_actuator: (..., nq / nv) after a step; ctrl: (..., nu); wheel_radius: the
@@ -140,14 +143,17 @@ def sample(qpos, qvel, qfrc_actuator, ctrl, wheel_radius, lay, damping=None, mot
     speed, so with `damping` (..., 8) (kv per motor, N m s/rad) and `motor_dv` (..., 8) (each
     motor joint's speed change over the step, rad/s) the applied torque is qfrc_actuator -
     kv dv: 3.6 N m less per wheel at 5 ms on a 1 s ramp to 1 km/h (validation/PEAKS.md).
-    Without them, qfrc_actuator as it is.
+    Without them, qfrc_actuator as it is. `motors`: the dcmotors' sample (`motor_stats.sample`), kept
+    as it is for the electrical statistics.
     """
     rate = take(qvel, lay.motor_dof)  # the 8 motor joints' speeds, drives first
     omega = rate[..., :4]
     tau = take(qfrc_actuator, lay.motor_dof)
     if damping is not None:
         tau = tau - damping * motor_dv
+    extra = {} if motors is None else {"motors": motors}
     return {
+        **extra,
         "tau": tau,
         "omega": omega,
         "rate": rate,
@@ -168,6 +174,8 @@ def init(cfg: StatsConfig, batch: tuple[int, ...], xp=np, dtype=None) -> dict[st
         return xp.full((*batch, *shape), fill, dtype=dtype)
 
     mission = {} if cfg.mission is None else {"mission": mission_stats.init(cfg.mission, batch, xp, dtype)}
+    if cfg.motors is not None:
+        mission["motors"] = motor_stats.init(batch, xp, dtype)
     return {
         **mission,
         "n": z(),
@@ -350,6 +358,8 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
     out["pose"] = xp.stack([s["pos"][..., -1, 0], s["pos"][..., -1, 1], yaw[..., -1]], axis=-1)
     if cfg.mission is not None:
         out["mission"] = mission_stats.update(c["mission"], tau, abs_lp, s, i, cfg.mission, xp)
+    if cfg.motors is not None:
+        out["motors"] = motor_stats.update(c["motors"], s["motors"], w, wr, cfg.dt, xp)
     return out
 
 
@@ -404,4 +414,6 @@ def finalize(c: dict[str, Any], cfg: StatsConfig, xp=np) -> dict[str, Any]:
     cols["status_code"] = xp.where((c["bad"] > 0) | ~finite, 1, xp.where(flipped, 2, 0))
     if cfg.mission is not None:
         cols.update(mission_stats.finalize(c["mission"], cfg.mission, xp))
+    if cfg.motors is not None:
+        cols.update(motor_stats.finalize(c["motors"], c["n"], xp))
     return cols

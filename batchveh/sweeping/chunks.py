@@ -55,8 +55,13 @@ class ChunkRunner:
         self.backend = resolve_backend(backend)
         self.cfg = spec.stats_config()
         base = model_for(spec.vehicle, spec.scenario)
-        try:  # a course the backend cannot run is refused before any work
+        try:  # a course or motor the backend cannot run is refused before any work
             course.check_backend(base, self.backend, spec.params)
+            if self.backend == "mjx" and spec.vehicle.motors.model == "dcmotor":
+                raise ConfigError(
+                    "vehicle.motors.model: dcmotor is not run by MJX's JAX implementation (backend mjx); "
+                    "allowed: backend mujoco or warp, or motors.model: servo"
+                )
             self.engine = make_engine(
                 self.backend,
                 spec.scenario,

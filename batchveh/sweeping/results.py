@@ -35,7 +35,7 @@ import pyarrow.fs as pafs
 import pyarrow.parquet as pq
 
 from batchveh.config import ConfigError
-from batchveh.stepping import mission_stats
+from batchveh.stepping import mission_stats, motor_stats
 from batchveh.stepping.stats import CHANNELS
 from batchveh.sweeping.storage import file_sha256, filesystem, parquet_bytes, write_atomic
 
@@ -107,6 +107,9 @@ def column_doc(name: str, param_units: dict[str, str]) -> tuple[str, str]:
     mission = mission_stats.column_doc(name)  # '<span>_<motor>_<stat>' of a mission
     if mission is not None:
         return mission
+    motor = motor_stats.column_doc(name)  # a dcmotor's electrical statistics
+    if motor is not None:
+        return motor
     for ch in CHANNELS:
         if name.startswith(ch + "_"):
             unit, doc = _STAT_DOC[name[len(ch) + 1 :]]

@@ -44,6 +44,7 @@ from batchveh.model.params import base_params, parameter_specs, variant_setup
 from batchveh.model.scenarios import Scenario, load_scenario, scenario_from_mapping
 from batchveh.model.soil import check_ground
 from batchveh.model.vehicle import Vehicle, load_vehicle, vehicle_from_mapping
+from batchveh.stepping.motor_stats import MotorStatsConfig
 from batchveh.stepping.stats import StatsConfig, slip_limit
 
 # numeric scenario fields that are neither swept nor fixed per sweep: they belong in the scenario
@@ -128,7 +129,11 @@ class SweepSpec:
     def stats_config(self) -> StatsConfig:
         """The reduction's settings: steps, window and filter."""
         return StatsConfig.for_scenario(
-            self.scenario, self.window, lowpass_s=self.lowpass_s, slip_limit=slip_limit(self.vehicle)
+            self.scenario,
+            self.window,
+            lowpass_s=self.lowpass_s,
+            slip_limit=slip_limit(self.vehicle),
+            motors=MotorStatsConfig.for_vehicle(self.vehicle),
         )
 
     def variant(self, row: Any) -> tuple[Vehicle, Scenario]:

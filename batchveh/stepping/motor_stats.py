@@ -1,0 +1,186 @@
+"""The electrical and thermal statistics of dcmotors (vehicle.motors.model: dcmotor), in the carry.
+
+Each motor's constants are the vehicle's (its catalogue motors; `MotorStatsConfig.for_model`), so
+they are static; the per-step samples come from MuJoCo's actuator state (`sample`). At the motor,
+with the simulated motor's resistance R' = R / eta (batchveh/model/motors.py, the gearhead's
+efficiency), per step:
+
+- the simulated current i' = F / K from the actuator's force F (the torque the motor gives: with
+  MuJoCo's current limit, the limited current), the real current i = i' / eta;
+- the winding's temperature T = T_amb + the thermal state (MuJoCo's act), R'(T) = R' (1 + alpha
+  (T - T_ref));
+- the terminal voltage v = i' R'(T) + K w (w: the motor's speed), and the electrical power v i,
+  drawn where positive, regenerated where negative;
+- at the voltage line: |v| >= V (the controller's clamp, the bus voltage); at the current limit:
+  |F| >= K eta i_max.
+
+Columns, per motor (`drive_lf_current_rms`, ...): current RMS over the steady window and peak over
+the run (A), winding temperature peak and at the end (deg C), energy drawn and regenerated over the
+run (J), the share of the run's steps at the voltage line and at the current limit; for the
+vehicle: the bus's peak power (W, the 8 motors' sum) and its net energy over the run (Wh), and
+`motor_limited`, true where a drive motor spent more than LIMITED_SHARE of the run at a limit (the
+vehicle could not be driven as imposed: its speed tracking error says by how much).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from batchveh.model.motors import COPPER_TEMPCOEF, REFERENCE_TEMP
+from batchveh.model.vehicle import MOTORS
+
+LIMITED_SHARE = 0.01  # a drive motor at its voltage line or current limit for more than 1% of the run
+AT_LIMIT_RTOL = 1e-6  # |v| >= V (1 - this), |F| >= F_max (1 - this)
+_PER_MOTOR = {
+    "current_rms": ("A", "RMS motor current over the steady window"),
+    "current_peak": ("A", "peak |motor current| over the run after the settle"),
+    "winding_temp_peak": ("deg C", "peak winding temperature over the run (one-node thermal model)"),
+    "winding_temp_end": ("deg C", "winding temperature at the end of the run"),
+    "energy_drawn": ("J", "electrical energy drawn from the bus over the run after the settle"),
+    "energy_regen": ("J", "electrical energy returned to the bus over the run after the settle"),
+    "at_voltage_share": ("1", "share of the run's steps at the voltage line (the bus voltage)"),
+    "at_current_share": ("1", "share of the run's steps at the current limit"),
+}
+_VEHICLE = {
+    "bus_power_peak": ("W", "peak electrical power of the 8 motors together (drawn), run after the settle"),
+    "bus_energy_wh": ("Wh", "net electrical energy of the 8 motors over the run after the settle"),
+    "motor_limited": ("", "a drive motor spent more than 1% of the run at its voltage line or current limit"),
+}
+
+
+@dataclass(frozen=True)
+class MotorStatsConfig:
+    """Each motor's constants, MOTORS order, as the simulated dcmotor has them."""
+
+    K: tuple[float, ...]  # N m/A
+    R: tuple[float, ...]  # Ohm, the simulated R' = R / eta at T_ref
+    eta: tuple[float, ...]
+    V: tuple[float, ...]  # V, the controller's clamp
+    force_max: tuple[float, ...]  # N m at the motor, 0: no current limit
+    T_amb: tuple[float, ...]  # deg C
+    thermal: tuple[bool, ...]
+    act: tuple[int, ...]  # each motor's thermal state in MjData.act (-1: none)
+
+    @staticmethod
+    def for_vehicle(vehicle: Any) -> MotorStatsConfig | None:
+        """The constants of the vehicle's dcmotors as `motors.dcmotor_xml` builds them (None for the
+        servo): drives then steering, each motor's thermal state next in MjData.act where it has one."""
+        if vehicle.motors.model != "dcmotor":
+            return None
+        drive, steer = (x.resolved() for x in vehicle.motors.dcmotors())
+        each = [drive] * 4 + [steer] * 4
+        thermal = tuple(c["R_T"] > 0 for c in each)
+        act = tuple(int(np.cumsum(thermal)[j]) - 1 if t else -1 for j, t in enumerate(thermal))
+        return MotorStatsConfig(
+            K=tuple(c["K"] for c in each),
+            R=tuple(c["R"] / c["eta"] for c in each),
+            eta=tuple(c["eta"] for c in each),
+            V=tuple(c["V"] for c in each),
+            force_max=tuple(c["K"] * c["eta"] * c["i_max"] for c in each),
+            T_amb=tuple(c["T_amb"] if c["R_T"] > 0 else REFERENCE_TEMP for c in each),
+            thermal=thermal,
+            act=act,
+        )
+
+
+def sample(force, velocity, act, cfg: MotorStatsConfig, xp=np) -> dict[str, Any]:
+    """Per step (..., B, 8): the real current, the winding temperature, the voltage, the power and the
+    limit flags, from the motors' actuator force and velocity (..., B, 8) and MjData.act (..., B, na;
+    None where no motor has a thermal state)."""
+    K, R, eta, V = (xp.asarray(x, force.dtype) for x in (cfg.K, cfg.R, cfg.eta, cfg.V))
+    fmax, t_amb = xp.asarray(cfg.force_max, force.dtype), xp.asarray(cfg.T_amb, force.dtype)
+    if any(cfg.thermal) and act is not None:
+        idx = np.maximum(np.asarray(cfg.act), 0)
+        rise = xp.where(xp.asarray(cfg.thermal), act[..., idx], 0.0)
+    else:
+        rise = xp.zeros_like(force)
+    temp = t_amb + rise
+    i_sim = force / K
+    r_t = R * (1 + COPPER_TEMPCOEF * (temp - REFERENCE_TEMP))
+    volt = i_sim * r_t + K * velocity
+    current = i_sim / eta
+    return {
+        "current": current,
+        "temp": temp,
+        "power": volt * current,
+        "at_v": xp.abs(volt) >= V * (1 - AT_LIMIT_RTOL),
+        "at_i": (fmax > 0) & (xp.abs(force) >= fmax * (1 - AT_LIMIT_RTOL)),
+    }
+
+
+def init(batch: tuple[int, ...], xp=np, dtype=None) -> dict[str, Any]:
+    dtype = dtype or xp.float64
+
+    def z(*shape, fill=0.0):
+        return xp.full((*batch, *shape), fill, dtype=dtype)
+
+    return {
+        "n_run": z(),
+        "i_sumsq": z(8),
+        "i_peak": z(8),
+        "t_peak": z(8, fill=-np.inf),
+        "t_end": z(8),
+        "drawn": z(8),
+        "regen": z(8),
+        "n_v": z(8),
+        "n_i": z(8),
+        "bus_peak": z(),
+        "bus_energy": z(),
+    }
+
+
+def update(c: dict[str, Any], e: dict[str, Any], w, wr, dt: float, xp=np) -> dict[str, Any]:
+    """Fold a block's samples `e` (..., B, 8); w, wr (B,): 1.0 at steps inside the steady window, past
+    the settle."""
+    wk, wrk = w[:, None], wr[:, None]
+    cur, power = e["current"], e["power"]
+    run = wr > 0
+    bus = power.sum(-1)
+    out = dict(c)
+    out["n_run"] = c["n_run"] + wr.sum()
+    out["i_sumsq"] = c["i_sumsq"] + (wk * cur * cur).sum(-2)
+    out["i_peak"] = xp.maximum(c["i_peak"], xp.where(run[:, None], xp.abs(cur), 0.0).max(-2))
+    out["t_peak"] = xp.maximum(c["t_peak"], xp.where(run[:, None], e["temp"], -np.inf).max(-2))
+    out["t_end"] = e["temp"][..., -1, :]
+    out["drawn"] = c["drawn"] + (wrk * xp.maximum(power, 0.0)).sum(-2) * dt
+    out["regen"] = c["regen"] + (wrk * xp.maximum(-power, 0.0)).sum(-2) * dt
+    out["n_v"] = c["n_v"] + (wrk * e["at_v"]).sum(-2)
+    out["n_i"] = c["n_i"] + (wrk * e["at_i"]).sum(-2)
+    out["bus_peak"] = xp.maximum(c["bus_peak"], xp.where(run, bus, 0.0).max(-1))
+    out["bus_energy"] = c["bus_energy"] + (wr * bus).sum(-1) * dt
+    return out
+
+
+def finalize(c: dict[str, Any], n_window, xp=np) -> dict[str, Any]:
+    """The columns: per motor and for the vehicle (the module's docstring)."""
+    n_run = xp.maximum(c["n_run"], 1.0)[..., None]
+    per = {
+        "current_rms": xp.sqrt(c["i_sumsq"] / xp.maximum(n_window, 1.0)[..., None]),
+        "current_peak": c["i_peak"],
+        "winding_temp_peak": c["t_peak"],
+        "winding_temp_end": c["t_end"],
+        "energy_drawn": c["drawn"],
+        "energy_regen": c["regen"],
+        "at_voltage_share": c["n_v"] / n_run,
+        "at_current_share": c["n_i"] / n_run,
+    }
+    cols = {f"{m}_{k}": v[..., j] for k, v in per.items() for j, m in enumerate(MOTORS)}
+    cols["bus_power_peak"] = c["bus_peak"]
+    cols["bus_energy_wh"] = c["bus_energy"] / 3600.0
+    limited = xp.maximum(per["at_voltage_share"], per["at_current_share"])[..., :4]
+    cols["motor_limited"] = xp.max(limited, axis=-1) > LIMITED_SHARE
+    return cols
+
+
+def column_doc(name: str) -> tuple[str, str] | None:
+    """(unit, description) of a motor column, or None."""
+    if name in _VEHICLE:
+        return _VEHICLE[name]
+    for m in MOTORS:
+        if name.startswith(m + "_") and name[len(m) + 1 :] in _PER_MOTOR:
+            unit, doc = _PER_MOTOR[name[len(m) + 1 :]]
+            return unit, f"{m}: {doc}"
+    return None
