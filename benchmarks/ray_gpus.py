@@ -2,6 +2,18 @@
 
     python benchmarks/ray_gpus.py --backend mjx --size 262144 --out benchmarks/results/h200x2-ray-gpus.json
     python benchmarks/ray_gpus.py --backend mujoco --size 64          # the CPU, to see that it runs
+    python benchmarks/ray_gpus.py --two-gpus OUTDIR --budget 570      # issue 33, on a host of two GPUs
+
+--two-gpus (issue 33) runs the warp engine on benchmarks/slope_100k.yaml (10 s, slip tyre) through the
+CLI in fresh processes, in this order, each step only while the budget (s) lasts (--only names steps):
+a warm-up in-process (it builds Warp's kernels; not timed); 1,000,000 variants in-process on one GPU
+(CUDA_VISIBLE_DEVICES=0) and with --executor ray on both; 100,000 with --executor ray (which runs them
+in its own process, Ray not started) and in-process; the same chunks (100,000 in chunks of 50,176)
+twice on GPU 0, once on GPU 1 and once on two Ray workers (BATCHVEH_RAY_ALONE=0), for the run-to-run
+spread; 400,000 with --executor ray and a Ray worker killed (SIGKILL) 6 s into its first chunk. For
+each sweep: the process's wall, each part's landing, the steady rate between the first and the last
+part, and the executor's timeline (BATCHVEH_TIMELINE: Ray's start, the workers ready, each chunk where).
+Writes OUTDIR/<gpu>x2-ray-scaling.json and OUTDIR/<gpu>x2-warp-spread.json (<gpu>: h200 or h100).
 
 Writes one random sweep over sweeps/slope.yaml's ranges (slope, friction, speed; 5 s after the
 settle) and runs it with the CLI as a user would, alternating `--executor local` (mjx shards each
@@ -66,6 +78,207 @@ def run(spec: Path, executor: str, backend: str, out: Path, steps: int) -> dict:
     }
 
 
+SLOPE = ROOT / "benchmarks" / "slope_100k.yaml"
+ENV_KEYS = ("CUDA_VISIBLE_DEVICES", "BATCHVEH_RAY_ALONE", "BATCHVEH_RAY_DRIVER")  # recorded with each step
+
+
+def spec_of(folder: Path, n: int) -> Path:
+    raw = yaml.safe_load(SLOPE.read_text())
+    raw["sweep"]["n"], raw["name"] = n, f"slope_{n}"
+    path = folder / f"slope_{n}.yaml"
+    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return path
+
+
+def cli(spec: Path, out: Path, args=(), env=None, tmp: Path | None = None, kill_worker=False, backend="warp") -> dict:
+    """One sweep through the CLI in a fresh process: its summary, the parts' landings, the timeline."""
+    import pyarrow.parquet as pq
+
+    timeline = (tmp or out.parent) / f"{out.name}.timeline.json"
+    timeline.unlink(missing_ok=True)
+    env = {**os.environ, "PYTHONUNBUFFERED": "1", "BATCHVEH_TIMELINE": str(timeline), **(env or {})}
+    cmd = [sys.executable, "-m", "batchveh.sweep", str(spec), "--backend", backend, "--out", str(out)]
+    cmd += ["--overwrite", "--quiet", *args]
+    t0 = time.time()
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    killed = None
+    if kill_worker:  # SIGKILL the Ray worker once it has begun a chunk (a process this script started)
+        while proc.poll() is None and killed is None:
+            try:
+                events = json.loads(timeline.read_text())
+            except (OSError, ValueError):
+                events = []
+            ready = {e.get("where"): e["pid"] for e in events if e["event"] == "worker ready"}
+            started = [e for e in events if e["event"] == "chunk start" and e["where"] in ready]
+            if started:
+                time.sleep(6.0)  # into the chunk: its compile (about 4 s), then 7-8 s of simulation
+                os.kill(ready[started[0]["where"]], 9)
+                killed = {"t": time.time() - t0, "pid": ready[started[0]["where"]], "chunk": started[0]["chunk"]}
+            time.sleep(0.05)
+    stdout, stderr = proc.communicate()
+    process_s = time.time() - t0
+    line = next((m for m in map(SUMMARY.match, stdout.splitlines()) if m), None)
+    if proc.returncode or line is None:
+        return {"error": f"{' '.join(cmd)} failed ({proc.returncode}): {stdout[-2000:]} {stderr[-3000:]}"}
+    rows, ran, wall, compile_s, rate, _, device = line.groups()
+    manifest = json.loads((out / "manifest.json").read_text())
+    parts = []
+    for name, rec in sorted(manifest["parts"].items()):
+        meta = json.loads(pq.read_schema(out / name).metadata[b"batchveh"])
+        parts.append(
+            {
+                "part": name,
+                "rows": rec["rows"],
+                "landed_s": (out / name).stat().st_mtime - t0,
+                "chunk_wall_s": meta["chunk_wall_s"],
+                "compile_s": meta["compile_s"],
+            }
+        )
+    parts.sort(key=lambda p: p["landed_s"])
+    steps = 2100  # 10 s at 5 ms after the 0.5 s settle
+    after_first = sum(p["rows"] for p in parts[1:])
+    span = parts[-1]["landed_s"] - parts[0]["landed_s"] if len(parts) > 1 else 0.0
+    try:
+        events = [{**e, "t": round(e["t"] - t0, 3)} for e in json.loads(timeline.read_text())]
+    except (OSError, ValueError):
+        events = []
+    res = {
+        "command": " ".join(cmd[1:]),
+        "env": {k: v for k, v in (env or {}).items() if k in ENV_KEYS},
+        "process_s": round(process_s, 2),
+        "sweep_wall_s": float(wall),
+        "compile_s": float(compile_s),
+        "rows": int(rows),
+        "ran": int(ran),
+        "rate_whole_sweep": float(rate),
+        "device": device,
+        "first_part_s": round(parts[0]["landed_s"], 2),
+        "last_part_s": round(parts[-1]["landed_s"], 2),
+        "steady_rate": after_first * steps / span if span > 0 else None,
+        "parts": parts,
+        "notes": [ln for ln in stderr.splitlines() if ln.startswith(("note:", "error:"))],
+        "timeline": events,
+        "manifest_parts": len(manifest["parts"]),
+        "part_files": len(list(out.glob("part-*.parquet"))),
+    }
+    if killed:
+        res["killed"] = killed
+    return res
+
+
+def spread(a: Path, b: Path) -> dict:
+    """Run-to-run differences of two result folders of the same variants, per numeric column: relative
+    |a - b| / max(|a|, |b|) (0 where both are 0) and the same with a floor of 1e-3 of the column's p99
+    magnitude (for values near zero, such as a lateral position): max and p99 over the variants."""
+    import numpy as np
+
+    sys.path.insert(0, str(ROOT))
+    import batchveh
+
+    x = batchveh.load(a).sort_values("variant").reset_index(drop=True)
+    y = batchveh.load(b).sort_values("variant").reset_index(drop=True)
+    assert (x["variant"].to_numpy() == y["variant"].to_numpy()).all()
+    cols = {}
+    for k in x.columns:
+        if k == "variant" or x[k].dtype.kind not in "fiu" or x[k].dtype.kind == "b":
+            continue
+        u, v = x[k].to_numpy(np.float64), y[k].to_numpy(np.float64)
+        ok = np.isfinite(u) & np.isfinite(v)
+        u, v = u[ok], v[ok]
+        d = np.abs(u - v)
+        big = np.maximum(np.abs(u), np.abs(v))
+        rel = np.where(big > 0, d / np.where(big > 0, big, 1), 0.0)
+        floor = 1e-3 * np.percentile(big, 99) if big.size else 0.0
+        relf = d / np.maximum(big, floor) if floor > 0 else rel
+        cols[k] = {
+            "rel_max": float(rel.max(initial=0)),
+            "rel_p99": float(np.percentile(rel, 99)) if rel.size else 0.0,
+            "floored_max": float(relf.max(initial=0)),
+            "floored_p99": float(np.percentile(relf, 99)) if relf.size else 0.0,
+            "identical_share": float((d == 0).mean()) if d.size else 1.0,
+        }
+    same_status = float((x["status"] == y["status"]).mean())
+    worst = sorted(cols, key=lambda k: -cols[k]["floored_max"])[:8]
+    return {"variants": len(x), "status_equal_share": same_status, "worst_floored_max": worst, "columns": cols}
+
+
+def two_gpus(
+    outdir: Path, budget: float, backend: str = "warp", scale: float = 1.0, only=None, warmup_n=100_000
+) -> None:
+    t_start = time.time()
+    try:
+        query = ["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"]
+        names = subprocess.run(query, capture_output=True, text=True).stdout.strip().splitlines()
+    except OSError:
+        names = []
+    prefix = ("h200" if "H200" in names[0] else "h100" if "H100" in names[0] else "gpu") if names else "gpu"
+    prefix += f"x{len(names)}"
+    outdir.mkdir(parents=True, exist_ok=True)
+    res = {
+        "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+        "command": "python benchmarks/ray_gpus.py " + " ".join(sys.argv[1:]),
+        "machine": f"{platform.node()}, {os.cpu_count()} CPUs, GPUs: {', '.join(names)}",
+        "spec": "benchmarks/slope_100k.yaml (10 s, 2,100 steps with the settle; slip tyre), n set per step",
+        "steps": {},
+        "skipped": [],
+    }
+    spreads: dict = {"date": res["date"], "machine": res["machine"], "pairs": {}}
+    work = Path(tempfile.mkdtemp(prefix="ray33-"))
+
+    def save():
+        (outdir / f"{prefix}-ray-scaling.json").write_text(json.dumps(res, indent=1) + "\n")
+        (outdir / f"{prefix}-warp-spread.json").write_text(json.dumps(spreads, indent=1) + "\n")
+
+    def step(name, guess_s, n, executor, args=(), env=None, kill=False):
+        if only and name not in only and not name.startswith("warmup"):
+            return None
+        left = budget - (time.time() - t_start)
+        if left < guess_s:
+            res["skipped"].append(f"{name} (needs about {guess_s} s, {left:.0f} s left)")
+            print(f"skip {name}", flush=True)
+            return None
+        n = max(1, int(n * scale))
+        r = cli(spec_of(work, n), work / name, ["--executor", executor, *args], env, work, kill, backend)
+        res["steps"][name] = {"variants": n, "executor": executor, **r}
+        print(name, {k: r.get(k) for k in ("process_s", "first_part_s", "steady_rate", "device", "error")}, flush=True)
+        save()
+        return r
+
+    one = {"CUDA_VISIBLE_DEVICES": "0"}
+    step(f"warmup_{warmup_n}_local", 150, warmup_n, "local")
+    a = step("1m_local_1gpu", 160, 1_000_000, "local", env=one)
+    b = step("1m_ray_2gpu", 110, 1_000_000, "ray")
+    if a and b and "error" not in a and "error" not in b:
+        res["ray_over_one_gpu_process"] = b["process_s"] / a["process_s"]
+        save()
+    step("100k_ray", 40, 100_000, "ray")
+    step("100k_local", 40, 100_000, "local")
+    same = ["--chunk-size", str(max(1, int(50176 * scale)))]
+    pairs = {
+        "gpu0_again": ("same_gpu0_a", "same_gpu0_b"),
+        "gpu1": ("same_gpu0_a", "same_gpu1"),
+        "ray_workers": ("same_gpu0_a", "same_ray_workers"),
+    }
+    step("same_gpu0_a", 40, 100_000, "local", same, one)
+    step("same_gpu0_b", 40, 100_000, "local", same, one)
+    step("same_gpu1", 40, 100_000, "local", same, {"CUDA_VISIBLE_DEVICES": "1"})
+    step("same_ray_workers", 50, 100_000, "ray", same, {"BATCHVEH_RAY_ALONE": "0"})
+    for name, (x, y) in pairs.items():
+        if x in res["steps"] and y in res["steps"] and "error" not in res["steps"][y]:
+            spreads["pairs"][name] = {"a": x, "b": y, **spread(work / x, work / y)}
+            save()
+    step("400k_ray_worker_killed", 80, 400_000, "ray", kill=True)
+    if a and b and "error" not in a and "error" not in b and time.time() - t_start < budget - 20:
+        spreads["pairs"]["1m_one_gpu_vs_ray_two"] = {
+            "a": "1m_local_1gpu",
+            "b": "1m_ray_2gpu",
+            "note": "chunks of 125,184 in both",
+            **spread(work / "1m_local_1gpu", work / "1m_ray_2gpu"),
+        }
+    res["total_s"] = time.time() - t_start
+    save()
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--size", type=int, default=262144, help="variants (default 262,144: 131,072 per GPU on two)")
@@ -73,7 +286,16 @@ def main():
     ap.add_argument("--repeat", type=int, default=2)
     ap.add_argument("--out", help="JSON file to write, e.g. benchmarks/results/h200x2-ray-gpus.json")
     ap.add_argument("--note", default="")
+    ap.add_argument("--two-gpus", metavar="OUTDIR", help="issue 33's measurements (see the docstring)")
+    ap.add_argument("--budget", type=float, default=570.0, help="with --two-gpus: seconds in all")
+    ap.add_argument("--scale", type=float, default=1.0, help="with --two-gpus: times every size (a smoke test)")
+    ap.add_argument("--only", help="with --two-gpus: the steps to run, by name, comma-separated (and the warm-up)")
+    ap.add_argument("--warmup-n", type=int, default=100_000, help="with --two-gpus: variants of the warm-up")
     args = ap.parse_args()
+    if args.two_gpus:
+        backend = args.backend if args.backend != "mjx" else "warp"
+        only = args.only.split(",") if args.only else None
+        return two_gpus(Path(args.two_gpus), args.budget, backend, args.scale, only, args.warmup_n)
     sys.path.insert(0, str(ROOT))
     from batchveh.sweeping.spec import load_spec
 

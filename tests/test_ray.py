@@ -1,6 +1,8 @@
-"""Sweeps on Ray (issue 13), on a local Ray instance with 2 CPUs and MuJoCo C (float64, so the
+"""Sweeps on Ray (issues 13 and 33), on a local Ray instance with 2 CPUs and MuJoCo C (float64, so the
 in-process sweep of the same spec is the exact reference): equal results, a worker killed by its
-process id, the driver killed with SIGKILL then --resume, a chunk that keeps failing, bad input.
+process id, the driver killed with SIGKILL then --resume, a chunk that keeps failing, bad input; and
+one host shared by this process and Ray workers (what a local GPU sweep does): equal results, each
+chunk recorded once after a worker is killed, a one-chunk sweep without Ray, the chunk sizes.
 
 One Ray instance serves the module; each sweep starts its own workers (about 5 s on 2 cores).
 """
@@ -14,6 +16,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections import Counter
 
 import pandas as pd
 import pytest
@@ -47,6 +50,60 @@ def _spec(tmp_path, name="r", **over):
     path = tmp_path / f"{name}.yaml"
     path.write_text(yaml.safe_dump(raw, sort_keys=False))
     return path
+
+
+def test_one_chunk_on_a_shared_host_runs_here_without_ray(tmp_path):
+    """connect() with no address only arranges a local instance; a sweep of one chunk never starts it.
+    (First in the module: the module's Ray instance is not up yet.)"""
+    assert not ray.is_initialized()
+    path = _spec(tmp_path)
+    expect = _reference(tmp_path, path, chunk_size=8)
+    assert cluster.connect() is True and not ray.is_initialized()
+    try:
+        ex = cluster.RayExecutor(driver_works=True)
+        s = run_sweep(load_spec(path), out=tmp_path / "solo", chunk_size=8, progress=False, executor=ex)
+        assert not ray.is_initialized() and not ex.actors
+    finally:
+        cluster.disconnect()
+    assert s["device"].endswith("in this process alone (one chunk); Ray not started"), s["device"]
+    pd.testing.assert_frame_equal(batchveh.load(tmp_path / "solo"), expect)
+
+
+def test_shared_chunk_sizes():
+    # one host's GPUs: equal chunks of at least 65,536 variants, up to 8 per GPU, none over the largest
+    assert cluster.shared_chunk(100_000, 2) == 100_096  # one chunk: this process alone
+    assert cluster.shared_chunk(1_000_000, 2) == 66_816  # 15 chunks
+    assert -(-1_000_000 // 66_816) == 15
+    assert cluster.shared_chunk(10_000_000, 8) == 130_048  # 77 chunks, under the largest
+    assert cluster.shared_chunk(200_000, 2) == 66_816  # 3 chunks
+
+
+def test_alone_below_what_ray_start_saves():
+    # a local GPU sweep runs without Ray where a second GPU would not save more than Ray's start costs
+    assert cluster.alone_reason(1_000_000, 2100, "warp", gpus=1) == "one GPU"
+    assert cluster.alone_reason(1_000_000, 2100, "warp", gpus=2, chunk=1_000_000) == "one chunk"
+    assert "of simulation on one GPU" in cluster.alone_reason(100_000, 2100, "warp", gpus=2)  # about 11 s
+    assert cluster.alone_reason(1_000_000, 2100, "warp", gpus=2) is None  # about 110 s: Ray's workers
+    assert cluster.alone_reason(100_000, 2100, "mjx", gpus=2) is None  # MJX is 6x slower: worth it
+
+
+def test_this_process_beside_workers_is_refused_on_warp(tmp_path, monkeypatch):
+    monkeypatch.setenv("BATCHVEH_RAY_DRIVER", "1")
+    ex = cluster.RayExecutor()
+    with pytest.raises(batchveh.config.ConfigError, match="unknown stream"):
+        ex.start(load_spec(_spec(tmp_path)), "warp", 8, 8, ResultFolder(tmp_path / "w"))
+
+
+def test_worth_it():
+    ex = cluster.RayExecutor()
+    ex._chunk_s, ex._compile_s, ex._own = None, None, None
+    assert ex.worth_it(warm=False, queued=1)  # nothing timed yet
+    ex._chunk_s, ex._compile_s = 10.0, 4.0
+    ex._own = (0, time.perf_counter())  # this process has just begun a chunk of 10 s
+    assert ex.worth_it(warm=False, queued=1)  # 14 s on the worker against 20 s here
+    ex._own = (0, time.perf_counter() - 7.0)  # 3 s left here: 13 s against 14 s on a cold worker
+    assert not ex.worth_it(warm=False, queued=1)
+    assert ex.worth_it(warm=True, queued=1)  # 10 s on a warm one
 
 
 @pytest.fixture(scope="module")
@@ -184,3 +241,65 @@ def test_bad_executor_or_address_is_one_line(tmp_path, capsys, monkeypatch, loca
     err = _one_line(capsys, [path, "--executor", "ray"])
     assert "Ray is not installed" in err and "pip install -e '.[ray]'" in err
     assert not (tmp_path / "r").exists()  # nothing was started or written
+
+
+def _shared_run(tmp_path, monkeypatch, name, kill=False):
+    """BIG on this process and one Ray worker (a shared host, as on GPUs, here on the CPU). This process
+    runs its first chunk, then waits until the worker has built its engine (and, with `kill`, until the
+    worker has been killed), so that the worker surely runs chunks."""
+    from batchveh.sweeping.chunks import ChunkRunner
+
+    path = _spec(tmp_path, **BIG)
+    expect = _reference(tmp_path, path, chunk_size=8)
+    out, ex, notes, killed = tmp_path / name, cluster.RayExecutor(workers=1, driver_works=True), [], []
+    run, calls = ChunkRunner.run, []
+
+    def slow_here(self, c):  # in this process only: the Ray worker imports its own ChunkRunner
+        calls.append(c)
+        if len(calls) == 2 and ex.starting:
+            ray.wait(list(ex.starting), num_returns=len(ex.starting), timeout=120)
+        deadline = time.time() + 120
+        while kill and len(calls) > 2 and not killed and time.time() < deadline:
+            time.sleep(0.01)
+        return run(self, c)
+
+    def kill_worker():  # once this process knows the worker's process id: it holds chunks then
+        deadline = time.time() + 120
+        while not ex.workers_info and time.time() < deadline:
+            time.sleep(0.005)
+        pid = ex.workers_info[0]["pid"]
+        os.kill(pid, signal.SIGKILL)
+        killed.append(pid)
+
+    monkeypatch.setattr(ChunkRunner, "run", slow_here)
+    killer = threading.Thread(target=kill_worker)
+    if kill:
+        killer.start()
+    s = run_sweep(load_spec(path), out=out, chunk_size=8, progress=False, report=notes.append, executor=ex)
+    if kill:
+        killer.join()
+    assert s["rows"] == 64 and not s["failed"], s
+    assert s["device"].startswith("this process and 1 Ray worker, each 1 CPU thread"), s["device"]
+    pd.testing.assert_frame_equal(batchveh.load(out), expect)  # bit-identical to the in-process sweep
+    # every chunk recorded once, nothing half-written left behind
+    assert sorted(ResultFolder(out).read_manifest()["parts"]) == _parts(out) and len(_parts(out)) == 8
+    assert not list(out.glob(".*.tmp"))
+    ends = [e for e in ex.timeline if e["event"] == "chunk end"]
+    return ends, notes, killed
+
+
+def test_shared_host_equals_in_process(tmp_path, local_ray, monkeypatch):
+    ends, notes, _ = _shared_run(tmp_path, monkeypatch, "shared")
+    where = Counter(e["where"] for e in ends)
+    assert where["driver"] >= 1 and where["worker 0"] >= 1, where  # both ran chunks
+    assert sorted(e["chunk"] for e in ends) == list(range(8)) and not notes, notes
+
+
+def test_shared_host_worker_killed(tmp_path, local_ray, monkeypatch):
+    ends, notes, killed = _shared_run(tmp_path, monkeypatch, "shared-killed", kill=True)
+    [pid] = killed
+    assert any("its Ray worker died; it runs again" in n for n in notes), notes
+    with pytest.raises(ProcessLookupError):
+        os.kill(pid, 0)
+    # the chunks the killed worker held ran again, here or on the restarted worker: each ended once
+    assert sorted(e["chunk"] for e in ends) == list(range(8)), ends
