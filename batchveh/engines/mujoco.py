@@ -32,6 +32,7 @@ from batchveh.stepping.rollout import MujocoTyre, float_precision
 # length fixes the order of the float additions: another length changes results in the last bits.
 BLOCK = 100
 TILE = 256  # variants per fold call (see MujocoEngine.run)
+MIN_PART = 64  # variants: a smaller chunk runs as one part (MujocoEngine.parts)
 # model fields mujoco.batch shares between all simulations (asset data): a chunk runs one batch per value
 SHARED_ASSETS = ("hfield_data",)
 # warnings that mean the simulation's state is no longer valid
@@ -115,6 +116,32 @@ class MujocoEngine:
         return out
 
     def _run(self, batch: VariantBatch) -> dict[str, np.ndarray]:
+        """The chunk's columns. With a wheel-ground model applied between steps (the slip tyre, the
+        soil), the chunk runs as one part per thread, each with its own single-threaded Batch and
+        its own wheel-ground step, side by side: that step (XLA, one thread) and the Python between
+        steps then run on every CPU instead of one. Each variant's statistics are its own, so the
+        parts give the same columns."""
+        from concurrent.futures import ThreadPoolExecutor
+
+        parts = self.parts(batch.n, layout(batch.model).applied)
+        with captured_warnings() as messages:
+            if parts == 1:
+                out = self._run_part(batch, self.nthread)
+            else:
+                edges = np.linspace(0, batch.n, parts + 1).astype(int)
+                pieces = [_rows(batch, slice(lo, hi)) for lo, hi in zip(edges[:-1], edges[1:], strict=True)]
+                with ThreadPoolExecutor(parts) as pool:
+                    cols = list(pool.map(lambda piece: self._run_part(piece, 1), pieces))
+                out = {k: np.concatenate([c[k] for c in cols]) for k in cols[0]}
+        self.warnings.extend(messages[: max(0, 5 - len(self.warnings))])
+        return out
+
+    def parts(self, n: int, applied: bool) -> int:
+        """Parts a chunk of n variants runs as: one per thread where a wheel-ground model steps between
+        MuJoCo's steps and each part keeps at least MIN_PART variants, else one (on nthread threads)."""
+        return max(1, min(self.nthread, n // MIN_PART)) if applied else 1
+
+    def _run_part(self, batch: VariantBatch, nthread: int) -> dict[str, np.ndarray]:
         """Step the chunk in blocks; while MuJoCo steps block k on its threads, two worker threads
         fold block k-1's records into the statistics and compute block k+1's controls (all
         release the GIL while they compute). The last block's fold and the finalize, which no
@@ -125,7 +152,7 @@ class MujocoEngine:
 
         m = batch.model
         lay = layout(m)
-        b = Batch(m, nsim=batch.n, nthread=self.nthread)
+        b = Batch(m, nsim=batch.n, nthread=nthread)
         for name, values in batch.fields.items():
             b.expand(name)[:] = values
         # the slip tyre acts between steps: bound before the reset, so its forward pass fills them
@@ -217,7 +244,7 @@ class MujocoEngine:
         # two workers: one folds block k-1, the other computes block k+1's controls (JAX), both
         # while MuJoCo steps block k (two fold workers, each with half the tiles, ran no faster
         # on 2 cores)
-        with ThreadPoolExecutor(2) as pool, captured_warnings() as messages:
+        with ThreadPoolExecutor(2) as pool:
             pending = None
             next_ctrls = pool.submit(controls, 0)
             for k in range(len(edges) - 1):
@@ -241,13 +268,19 @@ class MujocoEngine:
                 if k + 2 < len(edges):
                     pending = pool.submit(fold_all, accs, rec, steps, ctrls, failed.copy(), first)
                     first = rec["qvel"][:, -1, lay.motor_dof]  # fancy indexing: a copy
-        self.warnings.extend(messages[: max(0, 5 - len(self.warnings))])
         with ThreadPoolExecutor(min(cpus(), len(tiles))) as tail:  # every CPU is free now
             accs = list(tail.map(lambda acc, tile: fold(acc, rec, steps, ctrls, failed, first, tile), accs, tiles))
             cols = list(tail.map(lambda acc: stats.finalize(acc, self.cfg), accs))
         out = {k: np.concatenate([c[k] for c in cols]) for k in cols[0]}
         out["solver_limit_share"] = at_limit / self.cfg.n_steps
         return out
+
+
+def _rows(batch: VariantBatch, rows: slice) -> VariantBatch:
+    """The variants `rows` of a batch."""
+    fields = {k: v[rows] for k, v in batch.fields.items()}
+    params = {k: np.asarray(v)[rows] for k, v in batch.params.items()}
+    return VariantBatch(batch.model, fields, params, rows.stop - rows.start)
 
 
 class _TyreStepper:
