@@ -22,7 +22,8 @@ CURRENT = {
     "cpu-2core-structural-prepare.json": "",
     "h200-structural-spread.json": "",
     "h200-structural-resume.json": "",
-    "h200-warp-vs-cpu-2core-c-structural-compare.json": "",
+    "h200-warp-vs-cpu-2core-c-fixed-structural-compare.json": "",
+    "h200-motors.json": "",
     "h200-tyres.json": "The warp engine, slip tyre and rigid contact side by side",
     "h200-tyres-mjx.json": "MJX's JAX implementation on a GPU, slip tyre and rigid contact",
     "h200-warp-soft.json": "The warp engine, rigid contact (elliptic, impratio 100, impedance 0.25), "
@@ -330,6 +331,13 @@ def structural_section(d: dict, name: str) -> list[str]:
             f"| {' + '.join(r['params'])} | {r['n']:,} | {r['us_per_variant']:.1f} | {r['compile_per_variant_us']:.0f} |"
             for r in d["rows"]
         ]
+    elif d["part"] == "motors":
+        rows = ["| vehicle | round | process s | variant-steps/s |", "| --- | --- | --- | --- |"]
+        rows += [f"| {r['kind']} | {r['round']} | {r['process_s']:.1f} | {r.get('rate', 0):.3g} |" for r in d["runs"]]
+        rows += [
+            "",
+            f"{d['size']:,} variants x {d['total_time']:g} s; dcmotor / servo (median rate): {d['ratio']:.3f}.",
+        ]
     elif d["part"] == "sweep":
         rows = ["| sweep | round | process s | sweep s | dry-run estimate s |", "| --- | --- | --- | --- | --- |"]
         rows += [
@@ -602,8 +610,8 @@ def render_files(files: list[Path]) -> list[str]:
         if k in ("stages", "scaling", "contact-cost"):
             continue  # grouped below
         d = json.loads(f.read_text())
-        if k == "structural":
-            out += structural_section(d, f.name)
+        if k in ("structural", "motors"):
+            out += structural_section({"part": k, **d}, f.name)
         elif k == "end-to-end-ab":
             out += ab_section(d, f.name)
         elif k == "end-to-end":
@@ -639,6 +647,8 @@ def render_files(files: list[Path]) -> list[str]:
             out += soil_section(d, f.name)
         elif k == "wheel-ground":
             out += wheel_ground_section(d, f.name)
+        elif "info" not in d:  # a result file of a kind this page has no table for: named, with its link
+            out += [f"### `{f.name}`", "", f"Not tabulated here; raw: [{f.name}]({RAW}/{f.name}).", ""]
         else:
             out += bench_section(d, f.name)
             continue  # bench_section adds the file's note itself
@@ -665,6 +675,7 @@ def render_files(files: list[Path]) -> list[str]:
 
 KINDS = (
     "structural",
+    "motors",
     "probe",
     "step-profile",
     "warm-compile",
