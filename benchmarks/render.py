@@ -327,10 +327,9 @@ def structural_section(d: dict, name: str) -> list[str]:
             "| parameters | variants | us a variant | compile per variant (old path), us |",
             "| --- | --- | --- | --- |",
         ]
-        rows += [
-            f"| {' + '.join(r['params'])} | {r['n']:,} | {r['us_per_variant']:.1f} | {r['compile_per_variant_us']:.0f} |"
-            for r in d["rows"]
-        ]
+        for r in d["rows"]:
+            us, old = r["us_per_variant"], r["compile_per_variant_us"]
+            rows.append(f"| {' + '.join(r['params'])} | {r['n']:,} | {us:.1f} | {old:.0f} |")
     elif d["part"] == "motors":
         rows = ["| vehicle | round | process s | variant-steps/s |", "| --- | --- | --- | --- |"]
         rows += [f"| {r['kind']} | {r['round']} | {r['process_s']:.1f} | {r.get('rate', 0):.3g} |" for r in d["runs"]]
@@ -647,7 +646,7 @@ def render_files(files: list[Path]) -> list[str]:
             out += soil_section(d, f.name)
         elif k == "wheel-ground":
             out += wheel_ground_section(d, f.name)
-        elif "info" not in d:  # a result file of a kind this page has no table for: named, with its link
+        elif k == "ray-scaling" or "info" not in d:  # a kind this page has no table for: named, with its link
             out += [f"### `{f.name}`", "", f"Not tabulated here; raw: [{f.name}]({RAW}/{f.name}).", ""]
         else:
             out += bench_section(d, f.name)
@@ -676,6 +675,7 @@ def render_files(files: list[Path]) -> list[str]:
 KINDS = (
     "structural",
     "motors",
+    "ray-scaling",
     "probe",
     "step-profile",
     "warm-compile",
