@@ -54,7 +54,8 @@ def auto_chunk(name: str, n_variants: int | None) -> int:
     mem = jax.devices()[0].memory_stats() or {}
     if "bytes_limit" in mem:
         limit = min(limit, int(0.5 * mem["bytes_limit"] / GPU_BYTES_PER_VARIANT))
-    limit *= len(jax.devices())
+    if name == "mjx":  # MJX shards a chunk over every local device; the warp engine runs on one
+        limit *= len(jax.devices())
     if not n_variants:
         return limit
     n_chunks = -(-n_variants // limit)
