@@ -185,7 +185,9 @@ def sweep(args) -> dict:
                 )
     med = {k: float(np.median([x["process_s"] for x in runs if x["kind"] == k])) for k in ("flat", "structural")}
     ratio = med["structural"] / med["flat"]
-    print(f"structural / flat, median process wall: {ratio:.3f}")
+    wall = {(x["kind"], x["round"]): x["process_s"] for x in runs}
+    pairs = [wall["structural", r] / wall["flat", r] for r in range(args.repeat)]
+    print(f"structural / flat, median process wall: {ratio:.3f}; per round {pairs}, median {np.median(pairs):.3f}")
     return {
         "size": args.size,
         "total_time": args.time,
