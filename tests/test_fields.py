@@ -163,3 +163,18 @@ def test_an_impossible_vehicle_is_one_line(values, words):
         make_batch(Vehicle(), make_scenario(), {k: np.asarray(v) for k, v in values.items()})
     text = str(err.value)
     assert "\n" not in text and all(w in text for w in words), text
+
+
+def test_an_impossible_variant_stops_the_sweep_in_one_line_before_any_simulation(tmp_path, capsys):
+    from batchveh.sweep import main
+
+    spec = tmp_path / "bad.yaml"
+    spec.write_text(
+        "name: bad\nscenario: straight_line\nfixed: {total_time: 1.0}\n"
+        "sweep: {method: random, n: 50, seed: 0, params: {wheel.radius: {low: 0.05, high: 0.3}}}\n"
+        f"output: {tmp_path / 'out'}\n"
+    )
+    assert main([str(spec), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and str(spec) in err and "wheel.radius" in err and "hub.radius" in err, err
+    assert not list((tmp_path / "out").glob("part-*.parquet"))

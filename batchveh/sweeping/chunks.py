@@ -119,7 +119,10 @@ class ChunkRunner:
         spec = self.spec
         t0 = time.perf_counter()
         rows = self.table.rows(c * self.chunk, c * self.chunk + self.size(c))
-        batch = make_batch(spec.vehicle, spec.scenario, {k: rows[k].to_numpy() for k in spec.params}, spec.params)
+        try:  # an impossible variant (a wheel no larger than its hub): one line naming the spec
+            batch = make_batch(spec.vehicle, spec.scenario, {k: rows[k].to_numpy() for k in spec.params}, spec.params)
+        except ConfigError as err:
+            raise ConfigError(f"{spec.where}: sweep.params: {err}") from None
         apply_solver(batch.model, spec.solver)
         return c, rows, batch, time.perf_counter() - t0
 
