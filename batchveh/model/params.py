@@ -9,8 +9,9 @@ A parameter is named as in the YAML: a scenario field (`slope_deg`, `friction`,
 - `model`: written straight into a model field that derives nothing (gravity,
   the ground's friction, servo gains);
 - `structure`: mass and geometry, the vehicle's and the ground's (`course.FIELDS`);
-  the model is compiled by MuJoCo once per distinct combination, so every derived
-  constant is MuJoCo's own;
+  their model fields come from `stepping/fields.py` (closed forms and MuJoCo's
+  mj_setConst, no compile per variant; the ground's shape compiled once per
+  distinct shape), equal to a compile per variant;
 - `control`: read by the scenario's controls, as a traced value.
 
 `base_params` and `variant_setup` go between the flat name -> value mapping and

@@ -3,9 +3,10 @@
 `make_batch` turns a table of values (one (n,) array per swept parameter) into
 
 - `fields`: the MjModel fields that differ between variants, (n, ...) each. Mass
-  and geometry parameters are applied by compiling the vehicle once per distinct
-  combination, so every derived constant (inertia, invweight0, acc0, subtree
-  mass, bounding radii) is MuJoCo's own: MJX has no mj_setConst.
+  and geometry parameters are applied without a compile per variant
+  (`stepping/fields.py`: the compiler's part in closed form, mj_setConst's by
+  MuJoCo per variant), equal to a compile per variant (`compiled_fields`, the
+  reference the tests hold it to).
 - `params`: the flat control knobs, (n,) each, read by the scenario's controls.
 
 Which fields vary follows from the swept names alone (`varying_fields`), never
