@@ -11,7 +11,9 @@ References, none of them taken from the code under test:
   pressure): F / (mu N) = 1 - (1 - theta)^3, theta = C_s |s| / (3 mu), 1 from theta = 1.
 - Coulomb: locked wheels slide at g (mu cos s - sin s); a wheel dragged along its heading feels
   mu N r on its drive and mu N offset on its steering.
-Tolerances are the issue's; the measured value is beside each.
+Two bounds where it matters (issue 35): the issue's requirement (issue 20), named as such, and a
+regression bound a few times the error measured on the project's 2-core machine, so that a change far
+inside the requirement still fails. The measured values are beside each.
 """
 
 import dataclasses
@@ -33,14 +35,28 @@ SLIP = Vehicle()  # the default wheel-ground model is the slip tyre
 SLOPES = np.array([5.0, 10.0, 20.0])
 SPEEDS = np.array([1.0, 3.0])
 # each wheel's share of the four-wheel drive mean vs its share of the static load: the issue's
-# 2 points; measured 0.03 points at most on C, MJX f64 and warp
+# requirement, 2 points
 SHARE_ATOL = 0.02
-SPEED_SHARE_ATOL = 0.01  # the issue's 1 point between 1 and 3 km/h; measured 1e-4 points
-SUM_RTOL = 0.01  # the issue's; measured 2e-5 (no C_rr) and 1e-4 (C_rr 0.02)
-CURVE_RTOL = 0.01  # slip curve against its closed form; measured 1e-9 (steady state reached)
-SATURATION_ATOL = 0.02  # the issue's 1.00 +- 0.02 at full sliding; measured 1.000
-HOLD_MAX = 1e-3  # m in 5 s held on 10 and 20 deg at mu 0.9 (the issue's); measured 2e-8 m
-SLIDE_RTOL = 0.05  # the issue's; measured 1e-3
+# regression bound by engine: measured 8.1e-5 (C and MJX f64, the 20 deg rows) and 2.8e-4 (warp f32)
+# on the project's 2-core machine. An equal split is 1.3, 2.6 and 5.3 points off on the 5, 10 and
+# 20 deg rows, and a wheel that lost a tenth of its load transfer 0.1 to 0.5 points
+SHARE_REGRESSION = {"mujoco": 3e-4, "mjx": 3e-4, "warp": 1e-3}
+SPEED_SHARE_ATOL = 0.01  # the issue's requirement, 1 point between 1 and 3 km/h
+# regression bound: measured 1.6e-6 (C, MJX f64) and 1.7e-4 (warp f32) on the project's 2-core machine
+SPEED_SHARE_REGRESSION = {"mujoco": 1e-5, "mjx": 1e-5, "warp": 5e-4}
+SUM_RTOL = 0.01  # the issue's requirement
+# regression bound: measured 2.3e-5 (20 deg, every engine) and 1.1e-5 (C_rr 0.02) on the project's 2-core machine
+SUM_REGRESSION = 1e-4
+CURVE_RTOL = 0.01  # the issue's requirement: slip curve against its closed form
+# regression bound: measured 2.0e-15 at most (the steady state is reached; float64 round-off) on the
+# project's 2-core machine; the same step in float32 reads 1.3e-6 (kappa 0.03), a brush law 1e-4 too large 1e-4
+CURVE_REGRESSION = 1e-12
+SATURATION_ATOL = 0.02  # the issue's requirement, 1.00 +- 0.02 at full sliding; measured 1.000 (exactly)
+HOLD_MAX = 1e-3  # m in 5 s held on 10 and 20 deg at mu 0.9: the issue's requirement
+# regression bound: measured 2.0e-6 m (10 deg) and 4.0e-6 m (20 deg) on the project's 2-core machine
+HOLD_REGRESSION = 1e-5  # m
+SLIDE_RTOL = 0.05  # the issue's requirement
+SLIDE_REGRESSION = 1e-9  # regression bound: measured 1.6e-10 on the project's 2-core machine
 COULOMB_RTOL = 0.10  # the issue's, scenario 2 with the seed's laws
 DT_RTOL = 0.02  # halving dt moves a per-wheel sizing statistic by at most this (the issue's)
 
@@ -74,7 +90,8 @@ def _climbs(backend, vehicle=SLIP, precision="f64"):
 def test_split_follows_load(backend):
     """5, 10 and 20 deg at mu 0.9, 1 and 3 km/h: each wheel's share of the drive torque is its share
     of the static load within 2 points, and 1 -> 3 km/h moves it by at most 1 point; the four-wheel
-    sum is m g sin(s) r within 1%. MuJoCo C and MJX in float64, warp in float32 (its only one)."""
+    sum is m g sin(s) r within 1% (the requirements; the regression bounds, by engine, are tens of
+    times tighter). MuJoCo C and MJX in float64, warp in float32 (its only one)."""
     table, means, cols = _climbs(backend, precision="f32" if backend == "warp" else "f64")
     assert (cols["status_code"] == 0).all(), cols["status_code"]
     total = means.sum(1)
@@ -86,8 +103,11 @@ def test_split_follows_load(backend):
     print(f"{backend}: share off load by {100 * worst:.3f} points, speed moves it {100 * by_speed:.4f} points")
     assert worst < SHARE_ATOL
     assert by_speed < SPEED_SHARE_ATOL
+    assert worst < SHARE_REGRESSION[backend], worst
+    assert by_speed < SPEED_SHARE_REGRESSION[backend], by_speed
     ref = SLIP.total_mass * G * np.sin(np.deg2rad(table["slope_deg"])) * SLIP.wheel.radius
     np.testing.assert_allclose(total, ref, rtol=SUM_RTOL)
+    np.testing.assert_allclose(total, ref, rtol=SUM_REGRESSION)
 
 
 def test_sum_with_rolling_resistance():
@@ -103,6 +123,7 @@ def test_sum_with_rolling_resistance():
     ref = v.total_mass * G * (np.sin(s) + 0.02 * np.cos(s)) * v.wheel.radius
     print("sum / closed form - 1:", total / ref - 1)
     np.testing.assert_allclose(total, ref, rtol=SUM_RTOL)
+    np.testing.assert_allclose(total, ref, rtol=SUM_REGRESSION)
 
 
 def _wheel_at(v_centre, omega, n_force=355.0, r=0.195):
@@ -149,6 +170,7 @@ def test_slip_curve_longitudinal(kappa):
     theta = c_s * abs(kappa) / (3 * mu)
     expect = np.sign(kappa) * (1 - (1 - min(theta, 1.0)) ** 3)
     assert got == pytest.approx(expect, rel=CURVE_RTOL)
+    assert got == pytest.approx(expect, rel=CURVE_REGRESSION)
     if theta >= 1:
         assert abs(got) == pytest.approx(1.0, abs=SATURATION_ATOL)
 
@@ -165,6 +187,7 @@ def test_slip_curve_lateral(alpha_deg):
     theta = c_s * np.tan(a) / (3 * mu)
     expect = -(1 - (1 - min(theta, 1.0)) ** 3)  # the force opposes the slip (+Y)
     assert got == pytest.approx(expect, rel=CURVE_RTOL)
+    assert got == pytest.approx(expect, rel=CURVE_REGRESSION)
     assert abs(float(info["fx"])) < 1e-6 * mu * 355.0
     if theta >= 1:
         assert abs(got) == pytest.approx(1.0, abs=SATURATION_ATOL)
@@ -182,17 +205,20 @@ def test_combined_slip_saturates_on_the_circle():
     mag = mu * 355.0 * (1 - (1 - min(theta, 1.0)) ** 3)
     got = np.array([float(info["fx"]), float(info["fy"])])
     np.testing.assert_allclose(got, mag * s / np.hypot(*s), rtol=CURVE_RTOL)
+    np.testing.assert_allclose(got, mag * s / np.hypot(*s), rtol=CURVE_REGRESSION)
 
 
 def test_standstill_holds_and_slides_like_coulomb():
     """Wheels held at zero speed: on 10 and 20 deg at mu 0.9 the chassis moves less than 1 mm in
-    5 s; on 25 deg at mu 0.3 it slides down at g (mu cos s - sin s) within 5%."""
+    5 s (the requirement; 10 um as the regression bound); on 25 deg at mu 0.3 it slides down at
+    g (mu cos s - sin s) within 5% (1e-9 as the regression bound)."""
     for slope in (10.0, 20.0):
         sc = make_scenario("straight_line", slope_deg=slope, friction=0.9, speed_kmh=0.0, total_time=5.0)
         x = simulate(SLIP, sc).series[["x", "y"]].to_numpy()
         moved = np.abs(x - x[0]).max()
         print(f"held on {slope} deg: moved {moved:.3g} m in 5 s")
         assert moved < HOLD_MAX
+        assert moved < HOLD_REGRESSION, moved
     s = np.deg2rad(25.0)
     sc = make_scenario("straight_line", slope_deg=25.0, friction=0.3, speed_kmh=0.0, total_time=2.0)
     f = simulate(SLIP, sc).series
@@ -201,6 +227,7 @@ def test_standstill_holds_and_slides_like_coulomb():
     expect = G * (0.3 * np.cos(s) - np.sin(s))
     print(f"slide: {accel:.5g} m/s^2 against {expect:.5g}")
     assert accel == pytest.approx(expect, rel=SLIDE_RTOL)
+    assert accel == pytest.approx(expect, rel=SLIDE_REGRESSION)
 
 
 def test_scrub_slides_like_coulomb():
