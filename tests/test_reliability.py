@@ -286,6 +286,9 @@ def test_second_writer_is_refused_with_the_holder(tmp_path, capsys):
 
 
 def test_dry_run_estimates_for_the_device_it_will_run_on(tmp_path, capsys):
+    """The estimate names the device and its unit; how close it is to a real sweep's wall time is held within
+    2x on MuJoCo C by tests/test_sensitivity.py::test_dry_run_estimate_is_within_2x_of_the_wall (the sweep
+    it times runs there anyway)."""
     sweep = {"method": "grid", "params": {"slope_deg": {"start": 0, "stop": 30, "num": 1000}}}
     path = _spec(tmp_path, fixed={"total_time": 10.0}, sweep=sweep)
     assert main([str(path), "--dry-run", "--backend", "mjx"]) == 0
