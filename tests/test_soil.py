@@ -8,7 +8,8 @@ References, none of them taken from the code under test:
 - The Wong-Reece and Janosi-Hanamoto equations (Wong and Reece 1967; Wong 2008, ch. 2), written
   out again here on scalars and integrated by scipy's adaptive quad.
 - Each wheel's static load from the moment balance of the parts' masses (MuJoCo's centre of mass).
-Tolerances are the issue's; the measured value is beside each.
+Tolerances are the issue's (issue 22), named as such; where a check's error is far inside it, a regression
+bound a few times the error measured on the project's 2-core machine stands beside it (issue 35).
 """
 
 import dataclasses
@@ -43,10 +44,15 @@ LUNAR = _on("lunar_soil")
 BEKKER = dataclasses.replace(SOIL, soil=dataclasses.replace(SOIL.soil, c1=0.0, c2=0.0, c3=0.0))
 SINKAGE_RTOL = 0.10  # the issue's; measured 0.6% (dry sand) and 2.8% (lunar soil)
 TORQUE_RTOL = 0.10  # the issue's; measured 2.2%
-QUAD_RTOL = 0.005  # the issue's 0.5%; measured 1e-5 at most
-ENGINE_RTOL = 0.01  # the issue's 1% between C and MJX in float64; measured 0.18%
-WARP_RTOL = 0.02  # the issue's 2% at p99 for warp float32 (GPU: benchmarks; here on the CPU)
-DT_RTOL = 0.02  # dt from 2.5 to 20 ms moves the drive means by at most this; measured 0.8%
+QUAD_RTOL = 0.005  # the issue's requirement, 0.5%
+QUAD_REGRESSION = 5e-5  # regression bound: measured 1.0e-5 at most (Toyoura sand) on the project's 2-core machine
+ENGINE_RTOL = 0.01  # the issue's requirement, 1% between C and MJX in float64
+ENGINE_REGRESSION = 3e-10  # regression bound: measured 5.7e-11 on the project's 2-core machine
+WARP_RTOL = 0.02  # the issue's requirement, 2% at p99 for warp float32 (GPU: benchmarks; here on the CPU)
+WARP_REGRESSION = 3e-3  # regression bound: measured 8.2e-4 on the project's 2-core machine
+# dt from 2.5 to 20 ms moves the drive means by at most this (of the largest wheel of each row); measured
+# 0.82% (lunar soil, 10 deg, 20 ms), 0.53% (dry sand, 20 ms) and 0.20% (flat lunar soil, 20 ms)
+DT_RTOL = 0.02
 
 
 def _params(vehicle, load_guess_mass=None):
@@ -117,6 +123,7 @@ def test_quadrature_matches_an_adaptive_one(preset):
                     worst = max(worst, abs(float(np.ravel(got[key])[0]) - ref[key]) / scale)
     print(f"{preset}: largest difference {worst:.2e} of the support")
     assert worst < QUAD_RTOL
+    assert worst < QUAD_REGRESSION, worst
 
 
 def _wheel_loads(m, d):
@@ -198,6 +205,7 @@ def test_mjx_float64_agrees_with_mujoco_c():
     print("MJX f64 against C, largest per-wheel difference of the largest wheel:", err.max())
     assert (c_cols["status_code"] == 0).all()
     assert err.max() < ENGINE_RTOL
+    assert err.max() < ENGINE_REGRESSION, err.max()
 
 
 def test_warp_float32_agrees_with_mujoco_c():
@@ -208,19 +216,28 @@ def test_warp_float32_agrees_with_mujoco_c():
     err = np.abs(got - ref) / np.abs(ref).max(axis=1, keepdims=True)
     print("warp f32 against C, largest per-wheel difference of the largest wheel:", err.max())
     assert err.max() < WARP_RTOL
+    assert err.max() < WARP_REGRESSION, err.max()
 
 
 def test_time_step_does_not_move_the_torques():
-    """Flat dry sand and a 10 deg climb on lunar soil at 1 km/h: 2.5, 5, 10 and 20 ms steps give
-    the same drive means within 2% of the largest wheel (the dt study of validation/SOIL.md)."""
-    v = LUNAR
-    table = {"slope_deg": np.array([0.0, 10.0])}
+    """Flat dry sand, flat lunar soil and a 10 deg climb on lunar soil, at 1 km/h under the Earth's gravity
+    (one batch: the soils as swept soil.* values): 2.5, 5, 10 and 20 ms steps give the same drive means
+    within 2% of each row's largest wheel. On the dry sand this vehicle cannot drive (slip 0.99,
+    validation/SOIL.md), and the 10 deg climb slips too. validation/SOIL.md's dt study is the lunar soil
+    under the Moon's gravity."""
+    dry, lunar = soil.PRESETS["dry_sand"], soil.PRESETS["lunar_soil"]
+    table = {"slope_deg": np.array([0.0, 0.0, 10.0])}
+    table.update({f"soil.{k}": np.array([dry[k], lunar[k], lunar[k]]) for k in dry})
     runs = []
     for dt in (0.0025, 0.005, 0.01, 0.02):
         sc = make_scenario("straight_line", total_time=6.0, ramp_time=1.0, time_step=dt)
-        runs.append(_drive(v, table, scenario=sc)[0])
+        means, cols = _drive(SOIL, table, scenario=sc)
+        runs.append(means)
+    # the rows are the soils they claim: the dry sand (the base vehicle's preset) digs in, the lunar soil
+    # rolls on the flat and slips on the climb
+    assert SOIL.soil.preset == "dry_sand" and list(cols["slipping"]) == [True, False, True], cols["slipping"]
     ref = runs[0]
-    err = max(np.abs(r - ref).max() / np.abs(ref).max() for r in runs[1:])
+    err = max((np.abs(r - ref).max(axis=1) / np.abs(ref).max(axis=1)).max() for r in runs[1:])
     print("largest change over dt 2.5 to 20 ms:", err)
     assert err < DT_RTOL
 
