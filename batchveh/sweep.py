@@ -54,7 +54,8 @@ RATE_PER_GPU = {
     "soil": {"mjx": 7.9e5, "warp": 1.1e7},
 }
 # Preparing structural variants (stepping/fields.py: closed forms and mj_setConst), CPU thread-seconds per
-# variant: 10.3-18.4 us per variant on 2 threads (benchmarks/results/cpu-2core-structural.json)
+# variant: 9.7-10.1 us a variant on 2 threads quiet, 21-22 us with another job on the machine
+# (benchmarks/results/cpu-2core-structural-prepare.json and its earlier run); this takes about their middle
 PREPARE_S_PER_VARIANT = 2.8e-5
 COMPILE_S = {"mujoco": 2.0, "mjx-cpu": 60.0, "mjx-gpu": 15.0, "warp-cpu": 40.0, "warp-gpu": 60.0}
 # a GPU process with warm caches (JAX's compile cache filled, Warp's kernels built): imports, the first GPU work,

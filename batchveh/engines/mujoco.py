@@ -21,7 +21,7 @@ import mujoco
 import numpy as np
 
 from batchveh.model.missions import body_forces_fn
-from batchveh.model.motors import dc_controls
+from batchveh.model.motors import dc_schedule
 from batchveh.model.scenarios import Scenario, control_schedule
 from batchveh.model.vehicle import layout
 from batchveh.stepping import motor_stats, stats
@@ -189,9 +189,7 @@ class MujocoEngine:
                 ctrl = np.asarray(self._ctrl(params, jnp.asarray(t, jnp.float64)), np.float64)[:, : len(steps)]
                 sim = ctrl
                 if lay.dcmotor:  # each motor's setpoints; the drive angles carried from block to block
-                    sim = np.empty_like(ctrl)
-                    for j in range(len(steps)):
-                        sim[:, j], theta[:] = dc_controls(ctrl[:, j], theta, ratios, dt, np)
+                    sim, theta[:] = dc_schedule(ctrl, theta, ratios, dt)
                 if self._forces is not None:  # the rollout's inputs: ctrl, then xfrc_applied
                     xfrc = np.asarray(self._forces(params, body_mass, jnp.asarray(t, jnp.float64)), np.float64)
                     sim = np.concatenate([sim, xfrc[:, : len(steps)].reshape(*sim.shape[:2], -1)], axis=-1)

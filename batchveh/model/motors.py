@@ -46,6 +46,8 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from batchveh.config import ConfigError, did_you_mean, load_yaml
 
 TRIPLE_RTOL = 0.05  # datasheet rounding: the nominal triple and (R, K) must agree this well
@@ -259,3 +261,14 @@ def dc_controls(servo_ctrl, theta, ratios, dt, xp):
     vel = xp.concatenate([ratios[:4] * omega, ratios[4:] * dalpha], axis=-1)
     ctrl = xp.stack([pos, vel], axis=-1).reshape(*pos.shape[:-1], 16)
     return ctrl, theta + omega * dt
+
+
+def dc_schedule(servo_ctrls, theta, ratios, dt):
+    """`dc_controls` over a run of steps (numpy, time axis -2): (ctrl (..., T, 16), the drive angles after
+    the last step). The angle before step k is theta + dt omega_0 + ... + dt omega_{k-1}, added in turn
+    (a cumulative sum: the same additions, in the same order, as step-by-step `dc_controls`)."""
+    omega = servo_ctrls[..., 0:4]
+    start = np.broadcast_to(np.asarray(theta, float)[..., None, :], omega[..., :1, :].shape)
+    angles = np.cumsum(np.concatenate([start, omega * dt], axis=-2), axis=-2)
+    ctrl, _ = dc_controls(servo_ctrls, angles[..., :-1, :], ratios, dt, np)
+    return ctrl, angles[..., -1, :]

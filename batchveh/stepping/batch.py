@@ -73,15 +73,14 @@ def _gains(m: mujoco.MjModel, p: Mapping[str, Any], towing) -> tuple[np.ndarray,
     bias = np.broadcast_to(m.actuator_biasprm, (*n, *m.actuator_biasprm.shape)).copy()
     free = np.array([0.0 if tow else 1.0 for tow in towing])
     if lay.dcmotor:  # the on-board controller's kp and kd, in torque space at the motor: the wheel's / N^2
-        ratio2 = m.actuator_gear[lay.motor_act, 0] ** 2
+        drive, steer = lay.motor_act[:4], lay.motor_act[4:]
         for ids, key, col, scale in (
-            (lay.motor_act[:4], "motors.drive_kp", DC_KP, free),
-            (lay.motor_act[:4], "motors.drive_kv", DC_KD, free),
-            (lay.motor_act[4:], "motors.steer_kp", DC_KP, 1.0),
-            (lay.motor_act[4:], "motors.steer_kv", DC_KD, 1.0),
+            (drive, "motors.drive_kp", DC_KP, free),
+            (drive, "motors.drive_kv", DC_KD, free),
+            (steer, "motors.steer_kp", DC_KP, 1.0),
+            (steer, "motors.steer_kv", DC_KD, 1.0),
         ):
-            n_of = ratio2[:4] if key.startswith("motors.drive") else ratio2[4:]
-            gain[..., ids, col] = np.asarray(p[key], float)[..., None] * scale / n_of
+            gain[..., ids, col] = np.asarray(p[key], float)[..., None] * scale / m.actuator_gear[ids, 0] ** 2
         return gain, bias
     for ids, key, col, scale in (
         (lay.drive_vel_act, "motors.drive_kv", 2, free),

@@ -1,6 +1,6 @@
 """The electrical and thermal statistics of dcmotors (vehicle.motors.model: dcmotor), in the carry.
 
-Each motor's constants are the vehicle's (its catalogue motors; `MotorStatsConfig.for_model`), so
+Each motor's constants are the vehicle's (its catalogue motors; `MotorStatsConfig.for_vehicle`), so
 they are static; the per-step samples come from MuJoCo's actuator state (`sample`). At the motor,
 with the simulated motor's resistance R' = R / eta (batchveh/model/motors.py, the gearhead's
 efficiency), per step:

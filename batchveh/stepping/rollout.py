@@ -23,7 +23,7 @@ import numpy as np
 from batchveh.model import wheels
 from batchveh.model.indexing import take
 from batchveh.model.missions import body_forces_fn
-from batchveh.model.motors import dc_controls
+from batchveh.model.motors import dc_controls, dc_schedule
 from batchveh.model.scenarios import Scenario, control_schedule, controls_fn
 from batchveh.model.vehicle import Layout, layout
 from batchveh.stepping import motor_stats, stats
@@ -193,9 +193,7 @@ def mujoco_steps(
     tyre = MujocoTyre(m, lay, p) if lay.applied else None
     sim_ctrls = ctrls
     if lay.dcmotor:  # the motors' setpoints: the drive angles integrated step by step, as an integrator's act
-        sim_ctrls, theta = np.empty_like(ctrls), np.zeros(4)
-        for i in range(n_steps):
-            sim_ctrls[i], theta = dc_controls(ctrls[i], theta, m.actuator_gear[lay.motor_act, 0], m.opt.timestep, np)
+        sim_ctrls, _ = dc_schedule(ctrls, np.zeros(4), m.actuator_gear[lay.motor_act, 0], m.opt.timestep)
     mujoco.mj_forward(m, d)
     yield d, None
     for i in range(n_steps):
