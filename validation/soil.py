@@ -79,7 +79,10 @@ def published():
     sp = wheel_params(meta["radius_m"], meta["width_m"], so)
     with csv_path.open() as f:
         data = [{k: float(v) if v not in ("", None) else None for k, v in row.items()} for row in csv.DictReader(f)]
-    variants = {name: wheel_params(meta["radius_m"], meta["width_m"], {**so, **v}) for name, v in meta.get("variants", {}).items()}
+    variants = {
+        name: wheel_params(meta["radius_m"], meta["width_m"], {**so, **v})
+        for name, v in meta.get("variants", {}).items()
+    }
     rows = []
     for d in data:
         m = equilibrium(sp, meta["load_N"], d["slip"])
@@ -165,16 +168,35 @@ def figure(result, path):
         ax = axes[3]
         ax.plot(s, [r["data"]["drawbar_pull_N"] for r in pub["rows"]], "ko", label="Yoshida et al. 2003, 24.5 N")
         with (DATA / "wheel_test_all_loads.csv").open() as f:
-            theory = [r for r in csv.DictReader(f) if r["kind"] == "theory" and float(r["load_N"]) == pub["meta"]["load_N"]]
-        ax.plot([float(r["slip"]) for r in theory], [float(r["drawbar_pull_N"]) for r in theory], "g-", label="the authors' theory")
+            theory = [
+                r for r in csv.DictReader(f) if r["kind"] == "theory" and float(r["load_N"]) == pub["meta"]["load_N"]
+            ]
+        ax.plot(
+            [float(r["slip"]) for r in theory],
+            [float(r["drawbar_pull_N"]) for r in theory],
+            "g-",
+            label="the authors' theory",
+        )
         ax.plot(s, [r["model"]["drawbar_pull_N"] for r in pub["rows"]], "k--", label=f"model, c3 {c3:g}")
         for name in pub["rows"][0]["variants"]:
-            ax.plot(s, [r["variants"][name]["drawbar_pull_N"] for r in pub["rows"]], "k:", label=f"model, {name.split(' (')[0]}")
-        ax.fill_between(s, [0.8 * r["data"]["drawbar_pull_N"] for r in pub["rows"]],
-                        [1.2 * r["data"]["drawbar_pull_N"] for r in pub["rows"]], color="0.85", label="data +-20%")
+            ax.plot(
+                s,
+                [r["variants"][name]["drawbar_pull_N"] for r in pub["rows"]],
+                "k:",
+                label=f"model, {name.split(' (')[0]}",
+            )
+        ax.fill_between(
+            s,
+            [0.8 * r["data"]["drawbar_pull_N"] for r in pub["rows"]],
+            [1.2 * r["data"]["drawbar_pull_N"] for r in pub["rows"]],
+            color="0.85",
+            label="data +-20%",
+        )
         ax.legend(fontsize=7)
         for ax, key in zip(axes[1:3], ("torque_Nm", "sinkage_m"), strict=True):
-            ax.plot(s, [r["model"][key] for r in pub["rows"]], "k--", label=f"published test's wheel (model, c3 {c3:g})")
+            ax.plot(
+                s, [r["model"][key] for r in pub["rows"]], "k--", label=f"published test's wheel (model, c3 {c3:g})"
+            )
         axes[2].legend(fontsize=7)
     titles = ("drawbar pull, N", "driving torque, N m", "sinkage, m", "published single-wheel test: drawbar pull, N")
     for ax, title in zip(axes, titles, strict=True):
@@ -202,12 +224,20 @@ def main():
             if r["data"].get(k) is not None
         ]
         within = sum(abs(r["drawbar_pull_relative_error"]) <= 0.2 for r in rows)
-        result["published"] = {"meta": meta, "rows": rows, "largest_relative_error": max(errs), "points_within_20_percent": within}
+        result["published"] = {
+            "meta": meta,
+            "rows": rows,
+            "largest_relative_error": max(errs),
+            "points_within_20_percent": within,
+        }
         print("published test, largest relative error:", max(errs), f"within 20%: {within} of {len(rows)}")
         for r in rows:
-            print(f"  slip {r['data']['slip']:.3f}: data {r['data']['drawbar_pull_N']:.2f} N, model {r['model']['drawbar_pull_N']:.2f} N "
-                  f"({100 * r['drawbar_pull_relative_error']:+.0f}%), torque {r['model']['torque_Nm']:.3f} N m, "
-                  + ", ".join(f"{n.split(' (')[0]}: {v['drawbar_pull_N']:.2f} N" for n, v in r["variants"].items()))
+            print(
+                f"  slip {r['data']['slip']:.3f}: data {r['data']['drawbar_pull_N']:.2f} N, "
+                f"model {r['model']['drawbar_pull_N']:.2f} N "
+                f"({100 * r['drawbar_pull_relative_error']:+.0f}%), torque {r['model']['torque_Nm']:.3f} N m, "
+                + ", ".join(f"{n.split(' (')[0]}: {v['drawbar_pull_N']:.2f} N" for n, v in r["variants"].items())
+            )
     result["closed_forms"] = closed_forms()
     result["dt_study"] = dt_study()
     (ROOT / "validation" / "results" / "soil.json").write_text(json.dumps(result, indent=1) + "\n")

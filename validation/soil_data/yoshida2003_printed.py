@@ -70,10 +70,22 @@ def forces(h, s, k, c3, mirrored, c1=C1):
     breaks = sorted({x for x in (tr, tm, -tf, 0.0, tf) if tr <= x <= tf})
 
     def integral(f):
-        return sum(quad(f, a, b, limit=200, epsabs=0, epsrel=1e-10)[0] for a, b in zip(breaks, breaks[1:]) if b > a)
+        return sum(
+            quad(f, a, b, limit=200, epsabs=0, epsrel=1e-10)[0]
+            for a, b in zip(breaks, breaks[1:], strict=False)
+            if b > a
+        )
 
-    w = R * B * (integral(lambda t: sigma(t, tf, tr, tm, k, mirrored) * np.cos(t)) + integral(lambda t: tau(t) * np.sin(t)))
-    dp = R * B * (integral(lambda t: tau(t) * np.cos(t)) - integral(lambda t: sigma(t, tf, tr, tm, k, mirrored) * np.sin(t)))
+    w = (
+        R
+        * B
+        * (integral(lambda t: sigma(t, tf, tr, tm, k, mirrored) * np.cos(t)) + integral(lambda t: tau(t) * np.sin(t)))
+    )
+    dp = (
+        R
+        * B
+        * (integral(lambda t: tau(t) * np.cos(t)) - integral(lambda t: sigma(t, tf, tr, tm, k, mirrored) * np.sin(t)))
+    )
     return w, dp, R * R * B * integral(tau)
 
 
@@ -98,23 +110,48 @@ def read_csv(name):
 
 def main():
     rows = read_csv("wheel_test_all_loads.csv")
-    theory = {w: [(float(r["slip"]), float(r["drawbar_pull_N"])) for r in rows if r["kind"] == "theory" and float(r["load_N"]) == w] for w in LOADS}
+    theory = {
+        w: [
+            (float(r["slip"]), float(r["drawbar_pull_N"]))
+            for r in rows
+            if r["kind"] == "theory" and float(r["load_N"]) == w
+        ]
+        for w in LOADS
+    }
     data = [(float(r["slip"]), float(r["drawbar_pull_N"])) for r in read_csv("wheel_test.csv")]
     slips = [s for s, _ in theory[24.5]]
-    out = {"theory_peaks_N": {str(w): max(d for _, d in theory[w]) for w in LOADS}, "printed_procedure": [], "equilibrium": []}
+    out = {
+        "theory_peaks_N": {str(w): max(d for _, d in theory[w]) for w in LOADS},
+        "printed_procedure": [],
+        "equilibrium": [],
+    }
 
     # 1. the printed procedure: h = h_s (eq. 10) + c2 s, the forces at that sinkage
     for name, k in READINGS.items():
         for mirrored in (False, True):
-            entry = {"reading": name, "k_Pa_per_m^n": k, "sigma": "mirrored (Wong-Reece)" if mirrored else "as printed (eq. 6, 8)", "c3": C3, "curves": {}}
+            entry = {
+                "reading": name,
+                "k_Pa_per_m^n": k,
+                "sigma": "mirrored (Wong-Reece)" if mirrored else "as printed (eq. 6, 8)",
+                "c3": C3,
+                "curves": {},
+            }
             for w in LOADS:
                 hs = static_sinkage(w, k)
                 dp = [forces(hs + C2 * s, s, k, C3, mirrored)[1] for s in slips]
                 ww = [forces(hs + C2 * s, s, k, C3, mirrored)[0] for s in (0.0, 0.5)]
                 entry["curves"][str(w)] = {"h_s_mm": hs * 1e3, "DP_N": dp, "W_eq3_at_s0_and_0.5_N": ww}
-            entry["largest_deviation_from_theory_N"] = max(abs(a - t) for w in LOADS for a, (_, t) in zip(entry["curves"][str(w)]["DP_N"], theory[w]))
+            entry["largest_deviation_from_theory_N"] = max(
+                abs(a - t) for w in LOADS for a, (_, t) in zip(entry["curves"][str(w)]["DP_N"], theory[w], strict=False)
+            )
             out["printed_procedure"].append(entry)
-            print("printed", name, entry["sigma"], "peaks", [round(max(entry["curves"][str(w)]["DP_N"]), 1) for w in LOADS])
+            print(
+                "printed",
+                name,
+                entry["sigma"],
+                "peaks",
+                [round(max(entry["curves"][str(w)]["DP_N"]), 1) for w in LOADS],
+            )
 
     # 2. the sinkage from vertical equilibrium (no h_k), mirrored stress, rear angle c3 = 1.1, 1.0, 0
     for name in list(READINGS)[:2]:
@@ -122,17 +159,31 @@ def main():
         for c3 in (C3, 1.0, 0.0):
             entry = {"reading": name, "k_Pa_per_m^n": k, "c3": c3, "curves": {}}
             for w in LOADS:
-                entry["curves"][str(w)] = [forces(equilibrium_sinkage(w, s, k, c3, True), s, k, c3, True)[1] for s in slips]
-            entry["largest_deviation_from_theory_N"] = max(abs(a - t) for w in LOADS for a, (_, t) in zip(entry["curves"][str(w)], theory[w]))
+                entry["curves"][str(w)] = [
+                    forces(equilibrium_sinkage(w, s, k, c3, True), s, k, c3, True)[1] for s in slips
+                ]
+            entry["largest_deviation_from_theory_N"] = max(
+                abs(a - t) for w in LOADS for a, (_, t) in zip(entry["curves"][str(w)], theory[w], strict=False)
+            )
             pts = []
             for s, d in data:
                 h = equilibrium_sinkage(24.5, s, k, c3, True)
                 wv, dp, tq = forces(h, s, k, c3, True)
-                pts.append({"slip": s, "data_N": d, "DP_N": dp, "T_Nm": tq, "sinkage_m": h, "relative_error": (dp - d) / d})
+                pts.append(
+                    {"slip": s, "data_N": d, "DP_N": dp, "T_Nm": tq, "sinkage_m": h, "relative_error": (dp - d) / d}
+                )
             entry["against_data_24.5N"] = pts
             out["equilibrium"].append(entry)
-            print("equilibrium", name, "c3", c3, "peaks", [round(max(entry["curves"][str(w)]), 2) for w in LOADS],
-                  "vs data", [round(p["relative_error"], 2) for p in pts])
+            print(
+                "equilibrium",
+                name,
+                "c3",
+                c3,
+                "peaks",
+                [round(max(entry["curves"][str(w)]), 2) for w in LOADS],
+                "vs data",
+                [round(p["relative_error"], 2) for p in pts],
+            )
 
     # 3. batchveh's soil.integrate at the same sinkage, slip and soil (c1 0, c2 0.5 is theta_m = 0.5 s theta_f)
     sys.path.insert(0, str(HERE.parent.parent))
@@ -141,16 +192,36 @@ def main():
     comp = []
     for c3 in (0.0, 0.5, 1.0):
         so = {"n": N, "k_c": 85.0, "k_phi": 450.0, "c": 0.0, "phi": 27.5, "K": KJ, "c1": 0.0, "c2": C1, "c3": c3}
-        p = {"wheel.width": B, "wheel.radius": R, "wheel.mass": 1.0, "hub.mass": 0.0, "chassis.mass": 0.0, "payload.mass": 0.0,
-             "motors.armature": 0.0, "tyre.relaxation_length": 0.05, "gravity": 9.81, **{f"soil.{a}": v for a, v in so.items()}}
+        p = {
+            "wheel.width": B,
+            "wheel.radius": R,
+            "wheel.mass": 1.0,
+            "hub.mass": 0.0,
+            "chassis.mass": 0.0,
+            "payload.mass": 0.0,
+            "motors.armature": 0.0,
+            "tyre.relaxation_length": 0.05,
+            "gravity": 9.81,
+            **{f"soil.{a}": v for a, v in so.items()},
+        }
         sp = soil.params({a: np.array([v], float) for a, v in p.items()})
         for h in (0.005, 0.015, 0.03):
             for s in (0.0, 0.2, 0.5, 0.8):
                 o = soil.integrate(np.array([h]), np.array([s / (1 - s)]), np.zeros(1), np.ones(1), sp)
                 ref = forces(h, s, READINGS[list(READINGS)[0]], c3, True)
                 got = [float(np.ravel(o[x])[0]) for x in ("W", "DP", "T")]
-                comp.append({"c3": c3, "h": h, "s": s, "batchveh": got, "quad": list(ref),
-                             "largest_relative": max(abs(g - q) / max(abs(q), 1e-9 + 0.01 * abs(ref[0])) for g, q in zip(got, ref))})
+                comp.append(
+                    {
+                        "c3": c3,
+                        "h": h,
+                        "s": s,
+                        "batchveh": got,
+                        "quad": list(ref),
+                        "largest_relative": max(
+                            abs(g - q) / max(abs(q), 1e-9 + 0.01 * abs(ref[0])) for g, q in zip(got, ref, strict=False)
+                        ),
+                    }
+                )
     out["batchveh_vs_quad"] = {"rows": comp, "largest_relative": max(c["largest_relative"] for c in comp)}
     print("batchveh integrate against quad: largest relative difference", out["batchveh_vs_quad"]["largest_relative"])
     (HERE / "yoshida2003_printed.json").write_text(json.dumps(out, indent=1) + "\n")
