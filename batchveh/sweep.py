@@ -38,15 +38,18 @@ EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_PARTIAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 1
 
 # Rough rates in variant-steps/s for the dry run's estimate (docs/performance.md). MuJoCo C per thread, the
 # main job on 2 threads (benchmarks/results/cpu-2core-tyres-cpu-slope.json): slip 1.43e5, rigid 1.0e5; the
-# soil's step costs about the slip tyre's (cpu-2core-wheel-ground-step.json: 11.1 against 11.4 ms per step at
+# soil's step costs about the slip tyre's (cpu-2core-wheel-ground-step.json in benchmarks/results/archive.json:
+# 11.1 against 11.4 ms per step at
 # 2,048 variants, MuJoCo's step included). With an elliptic contact: MJX on the CPU 1.0e4 on 2 cores; the warp
 # engine 4.5e3 on 2 CPU cores (256 variants); on one H200, MJX (JAX implementation) 1.4e6 and the warp
-# engine 6.74e6 with the rigid contact (benchmarks/results/h200-warp-soft.json); with the slip tyre
-# (the default) MJX 2.87e6 (8,192 variants) and the warp engine 1.73e7 (benchmarks/results/h200-tyres*.json)
+# engine 6.74e6 with the rigid contact (h200-warp-soft.json in benchmarks/results/archive.json); with the slip
+# tyre (the default) MJX 2.87e6 (8,192 variants, benchmarks/results/h200-tyres-mjx.json) and the warp engine
+# 1.73e7-1.85e7 (benchmarks/results/h200-tyres-indexing.json; h200-tyres*.json in the archive)
 MUJOCO_RATE_PER_THREAD = {"rigid": 5.0e4, "slip": 7.1e4, "soil": 7.1e4}
 RATE_PER_CPU = {"mjx": 5.0e3, "warp": 2.2e3}  # per CPU core
-# the soil model: the warp engine 1.14e7 and 1.43e7 on two H200 (benchmarks/results/h200-soil*.json), the lower
-# taken; MJX 7.9e5 at 8,192 variants (h200-soil-mjx.json, whose slip row read 4.3e5, not the 2.87e6 above: not
+# the soil model: the warp engine 1.14e7 and 1.43e7 on two H200 (benchmarks/results/h200-soil.json and
+# h200-soil-unforwarded.json in benchmarks/results/archive.json), the lower taken; MJX 7.9e5 at 8,192 variants
+# (h200-soil-mjx.json in the archive, whose slip row read 4.3e5, not the 2.87e6 above: not
 # explained yet)
 RATE_PER_GPU = {
     "rigid": {"mjx": 1.4e6, "warp": 6.7e6},
@@ -59,7 +62,7 @@ RATE_PER_GPU = {
 PREPARE_S_PER_VARIANT = 2.8e-5
 COMPILE_S = {"mujoco": 2.0, "mjx-cpu": 60.0, "mjx-gpu": 15.0, "warp-cpu": 40.0, "warp-gpu": 60.0}
 # a GPU process with warm caches (JAX's compile cache filled, Warp's kernels built): imports, the first GPU work,
-# trace and cache load, about 7 s on one H200 (benchmarks/results/h200-warm-compile.json)
+# trace and cache load, about 7 s on one H200 (h200-warm-compile.json in benchmarks/results/archive.json)
 WARM_START_S = 8.0
 
 

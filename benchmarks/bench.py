@@ -1,22 +1,41 @@
-"""Speed and accuracy of batchveh against its peers, measured in one run.
+"""Speed and accuracy of batchveh against its peers, measured in one run on one machine.
 
-    python benchmarks/bench.py                       # CPU: peers + mjx on CPU (small)
-    python benchmarks/bench.py --mjx-sizes 1024 8192 65536 --solvers newton4 newton8 default
-    python benchmarks/bench.py --skip-cpu --mjx-sizes --courses flat step terrain --course-sizes 131072
+    python benchmarks/bench.py                       # CPU: the peers and batchveh, small
+    python benchmarks/bench.py --tyres rigid slip --skip-cpu --mjx-sizes --warp-sizes 131072
+    python benchmarks/bench.py --skip-cpu --mjx-sizes --courses flat step terrain
+    python benchmarks/bench.py soil --size 131072    # the soil model against slip and rigid (its own --help)
 
-Rows: raw mujoco.batch at its best (Batch.rollout in blocks with the controls
-precomputed, recording qpos, qvel and qfrc_actuator as batchveh does; its batch
-size, block length and thread count picked by a short scan recorded in the JSON,
-and measured again after the mjx rows: the ratio uses the mean of both runs),
-the older peer (one Batch.step per step on 512 variants, for reference), a
-serial mj_step loop, batchveh's mujoco engine, batchveh mjx at each batch size
-and solver setting. Rates are variant-steps/s (and simulated seconds per wall
-second); ratios are against the raw peer measured in the same run. Accuracy:
-mean and peak (steady window, raw and 50 ms low-pass) torques of a fixed sample
-of the slope variants against MuJoCo C in float64 with tolerance 1e-12 and 200
-iterations; relative errors, non-slipping and slipping variants reported apart.
-Results are printed as a table and written to benchmarks/results/<tag>.json;
-render.py folds them into docs/performance.md.
+Every row runs n variants of sweeps/slope.yaml's grid (drawn with a fixed seed) for 1,100 steps of
+5 ms and gives variant-steps/s (one variant advanced one step, per second of wall time, after the
+compile), simulated seconds per wall second, and its ratio to the raw peer of the same run. The rows:
+
+  raw mujoco.batch rollout   the CPU peer at its best: Batch.rollout in blocks with the controls
+                             precomputed outside its clock, recording qpos, qvel and qfrc_actuator
+                             as batchveh does; batch size, block and threads from a short scan (or
+                             --no-peer-scan and --peer-*), run before and after the GPU rows: the
+                             ratio column divides by the mean of both runs
+  older peer                 one Batch.step per step on 512 variants (for reference only)
+  serial mj_step loop        one thread, one variant at a time (what a plain MuJoCo script does)
+  batchveh mujoco            batchveh's MuJoCo C engine (its default threads), --cpu-variants
+  batchveh mjx ...           MJX's JAX engine at each --mjx-sizes, --solvers and --precisions
+  batchveh warp ...          the warp engine (MuJoCo Warp) at each --warp-sizes and --warp-solvers
+  MuJoCo Warp direct         the GPU peer: MuJoCo Warp stepped by hand, one CUDA graph per 50 steps,
+                             per-world gravity and friction, no batchveh code, no statistics
+  [slip] / [rigid] ...       with --tyres, each row per wheel-ground model (the peer runs the rigid one)
+  warp flat / step / terrain with --courses, the obstacles of the sweep spec on --course-backend
+
+Accuracy columns: a fixed sample (--ref-variants) runs on MuJoCo C in float64 with tolerance 1e-12
+and 200 iterations; per statistic, |x - ref| / max(|ref|, 1 N m) per variant, median / p99, over
+variants that do not slip (noslip_*) and those that do (slip_*). 'sum' is the four-wheel drive sum,
+'wheel' the four drive motors pooled, 'peak_lp' the peak after the 50 ms low-pass filter.
+
+Mode `soil` (python benchmarks/bench.py soil --help): the soil model, the slip tyre and the rigid
+contact on one random table of rover variants on the warp engine, best of --repeat each, and the
+soil model's float32 means against MuJoCo C float64.
+
+Results: printed as a table and written to benchmarks/results/LABEL-KIND.json (bench: --tag names
+the file; default the GPU's kind or cpu-Ncore); docs/performance.md reads the files it cites
+(python benchmarks/render.py).
 """
 
 from __future__ import annotations
@@ -30,7 +49,45 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+ROOT = Path(__file__).resolve().parent.parent
+RESULTS = ROOT / "benchmarks" / "results"
+sys.path.insert(0, str(ROOT))
+
+
+# One way for the benchmarks to name a machine and their output (bench.py, end_to_end.py)
+def gpu_names() -> list[str]:
+    """The NVIDIA GPUs' names, as nvidia-smi gives them (none without it)."""
+    import shutil
+    import subprocess
+
+    if not shutil.which("nvidia-smi"):
+        return []
+    done = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"], capture_output=True, text=True)
+    return [x.strip() for x in done.stdout.splitlines() if x.strip()] if done.returncode == 0 else []
+
+
+def default_label() -> str:
+    """The machine's label at the start of a result file's name: the GPU's kind ('h200', 'h200x2') or
+    'cpu-Ncore' (N: the CPUs this process may use)."""
+    import os
+
+    names = gpu_names()
+    if not names:
+        return f"cpu-{len(os.sched_getaffinity(0))}core"
+    kind = names[0].split()[-1].lower()
+    return kind if len(names) == 1 else f"{kind}x{len(names)}"
+
+
+def result_path(kind: str, label: str | None = None, out: str | Path | None = None) -> Path:
+    """--out if given, else benchmarks/results/LABEL-KIND.json."""
+    return Path(out) if out else RESULTS / f"{label or default_label()}-{kind}.json"
+
+
+def write_result(result: dict, path: Path) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(result, indent=1) + "\n")
+    print(f"wrote {path}")
+
 
 SOLVERS = {  # name -> (solver, iterations, ls_iterations)
     "default": ("newton", 100, 50),
@@ -356,7 +413,6 @@ def sized_rows(rows, label, sizes, n_steps, acc, backend, **extra):
 def warp_rows(rows, spec, ref_table, ref, solver, sizes, direct_sizes, n_steps):
     """Rows of batchveh's warp engine and of MuJoCo Warp driven directly, at each size; the
     warp engine's accuracy on the reference sample."""
-    from mjwarp_direct import bench_mjwarp_direct
 
     from batchveh.model.scenarios import gravity_vector
     from batchveh.stepping.batch import make_batch
@@ -425,8 +481,10 @@ def accuracy(cols, ref):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--tag", default=None, help="result name (default: device kind)")
+    if len(sys.argv) > 1 and sys.argv[1] == "soil":
+        return soil_main(sys.argv[2:])
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--tag", default=None, help="result file name, without .json (default: the machine's label)")
     ap.add_argument("--cpu-variants", type=int, default=1024, help="variants for batchveh mujoco and the serial loop")
     ap.add_argument("--no-peer-scan", dest="peer_scan", action="store_false", help="skip the peer's scan")
     ap.add_argument("--scan-sizes", type=int, nargs="+", default=[1024, 2048, 4096, 8192], help="peer batch sizes")
@@ -480,7 +538,7 @@ def main():
     n_steps = spec.scenario.n_steps
     sim_s = spec.scenario.total_time
     dev = jax.devices()[0]
-    tag = args.tag or dev.device_kind.replace(" ", "_")
+    tag = args.tag or default_label()
     rows = []
     info = {
         "date": time.strftime("%Y-%m-%d"),
@@ -589,9 +647,211 @@ def main():
             f"{r['name']:50s} {r['rate']:11.3g} {ratio:>6s} {r.get('compile_s', 0):6.1f} "
             f"{r.get('peak_mem_gb', 0):6.2f} | {errs}"
         )
-    path = Path(__file__).resolve().parent / "results" / f"{tag}.json"
-    path.write_text(json.dumps({"info": info, "rows": rows}, indent=1))
-    print(f"wrote {path}")
+    write_result({"info": info, "rows": rows}, Path(tag) if tag.endswith(".json") else RESULTS / f"{tag}.json")
+
+
+# MuJoCo Warp driven directly: the GPU peer (was benchmarks/mjwarp_direct.py)
+def bench_mjwarp_direct(model, gravity, friction, omega, n_steps: int, graph_steps: int = 50, contacts: int = 24):
+    """variant-steps/s of MuJoCo Warp stepping len(omega) worlds for n_steps.
+
+    model: the MjModel; gravity (n, 3), friction (n,) of the ground geom, omega (n,) rad/s."""
+    import warp as wp
+    from mujoco.mjx.third_party import mujoco_warp as mjw
+
+    from batchveh.engines.warp import constraint_rows
+    from batchveh.model.vehicle import layout
+
+    n = len(omega)
+    lay = layout(model)
+    cuda = wp.get_cuda_device_count() > 0
+    device = "cuda:0" if cuda else "cpu"
+    with wp.ScopedDevice(device):
+        mw = mjw.put_model(model)
+        mw.opt.warn_overflow = 0
+        mw.opt.gravity = wp.array(np.asarray(gravity, np.float32), dtype=wp.vec3)
+        fr = np.broadcast_to(model.geom_friction, (n, *model.geom_friction.shape)).astype(np.float32)
+        fr[:, lay.ground_geom, 0] = friction
+        mw.geom_friction = wp.array(fr, dtype=wp.vec3)
+        d = mjw.make_data(model, nworld=n, naconmax=n * contacts, njmax=constraint_rows(model, contacts))
+        w = wp.array(np.asarray(omega, np.float32))
+        vel_ids = wp.array(np.asarray(lay.drive_vel_act, np.int32))
+        pos_ids = wp.array(np.asarray(lay.drive_pos_act, np.int32))
+
+        @wp.kernel
+        def set_ctrl(
+            t: wp.array(dtype=float),
+            om: wp.array(dtype=float),
+            vel: wp.array(dtype=int),
+            pos: wp.array(dtype=int),
+            ctrl: wp.array2d(dtype=float),
+        ):
+            world, k = wp.tid()
+            ctrl[world, vel[k]] = om[world]
+            ctrl[world, pos[k]] = om[world] * t[world]
+
+        def steps(count):
+            for _ in range(count):
+                wp.launch(set_ctrl, dim=(n, 4), inputs=[d.time, w, vel_ids, pos_ids, d.ctrl])
+                mjw.step(mw, d)
+
+        steps(1)  # compile and load the kernels
+        wp.synchronize()
+        if cuda:
+            with wp.ScopedCapture() as capture:
+                steps(graph_steps)
+            graph = capture.graph
+            run = lambda: wp.capture_launch(graph)  # noqa: E731
+        else:
+            run = lambda: steps(graph_steps)  # noqa: E731
+        run()
+        wp.synchronize()
+        calls = max(1, n_steps // graph_steps)
+        t0 = time.perf_counter()
+        for _ in range(calls):
+            run()
+        wp.synchronize()
+        wall = time.perf_counter() - t0
+        qvel = d.qvel.numpy()
+    finite = float(np.isfinite(qvel).all(axis=1).mean())
+    return n * calls * graph_steps / wall, {"graph_steps": graph_steps, "device": device, "finite_share": finite}
+
+
+# mode `soil` (was benchmarks/soil.py)
+SOIL_DOC = """The soil wheel-ground model on the warp engine: its speed against the rigid ground's models,
+and its float32 accuracy against MuJoCo C float64 (issue 22).
+
+    python benchmarks/bench.py soil --size 131072 --out benchmarks/results/h200-soil.json   # one GPU
+    python benchmarks/bench.py soil --size 256 --ref 32 --steps 200                           # a CPU, to see it run
+
+One random table of variants on the Moon, Mars and the Earth (slope 0-20 deg, speed 0.5-4 km/h,
+and the lunar soil preset's k_phi, phi, K, c and n each swept over a band around it) runs on the
+warp engine with each wheel-ground model: `soil`, then the `slip` tyre and the `rigid` contact on
+the same table (their soil columns unused), in turns, `--repeat` times, each after a warm-up run
+of the same program. Rates are variant-steps/s; ratios are against `rigid` and `slip` measured in
+the same process. Accuracy: the first `--ref` variants on MuJoCo C in float64 against the warp
+engine's float32, per-wheel drive means (steady window), relative to the largest wheel of the
+variant, median / p99 / largest, for the variants C calls ok, steady and not slipping (the ones a
+sizing reads) and for the rest (a vehicle still accelerating in low gravity at the end of its run
+amplifies float32's rounding).
+"""
+SOIL_MODELS = ("soil", "slip", "rigid")
+
+
+def soil_table(n: int, seed: int = 0) -> dict[str, np.ndarray]:
+    from batchveh.model import soil
+
+    rng = np.random.default_rng(seed)
+    lunar = soil.PRESETS["lunar_soil"]
+    return {
+        "slope_deg": rng.uniform(0.0, 20.0, n),
+        "speed_kmh": rng.uniform(0.5, 4.0, n),
+        "gravity": rng.choice([1.62, 3.71, 9.81], n),
+        "soil.k_phi": lunar["k_phi"] * rng.uniform(0.5, 2.0, n),
+        "soil.phi": rng.uniform(25.0, 45.0, n),
+        "soil.K": rng.uniform(0.01, 0.03, n),
+        "soil.c": rng.uniform(0.0, 1.5, n),
+        "soil.n": rng.uniform(0.8, 1.2, n),
+    }
+
+
+def soil_vehicle(model: str):
+    import dataclasses
+
+    from batchveh.model import soil
+    from batchveh.model.tyres import Tyre
+    from batchveh.model.vehicle import Vehicle
+
+    v = Vehicle(tyre=Tyre(model=model))
+    return dataclasses.replace(v, soil=dataclasses.replace(v.soil, preset="lunar_soil", **soil.PRESETS["lunar_soil"]))
+
+
+def soil_scenario(steps: int):
+    from batchveh.model.scenarios import make_scenario
+
+    dt = 0.005
+    return make_scenario("straight_line", total_time=(steps - 100) * dt, ramp_time=1.0, settle_time=100 * dt)
+
+
+def soil_run(model: str, tab: dict, steps: int, backend: str, precision: str):
+    from batchveh.engines import make_engine
+    from batchveh.stepping import stats
+    from batchveh.stepping.batch import make_batch
+
+    v, sc = soil_vehicle(model), soil_scenario(steps)
+    batch = make_batch(v, sc, tab)
+    cfg = stats.StatsConfig.for_scenario(sc, slip_limit=stats.slip_limit(v))
+    eng = make_engine(backend, sc, cfg, batch.n, precision=precision)
+    t0 = time.perf_counter()
+    cols = eng.run(batch)
+    return cols, time.perf_counter() - t0, batch.n * sc.n_steps
+
+
+def soil_main(argv=None) -> None:
+    ap = argparse.ArgumentParser(
+        prog="bench.py soil", description=SOIL_DOC, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    ap.add_argument("--size", type=int, default=131072)
+    ap.add_argument("--steps", type=int, default=1100, help="steps per variant, the 0.5 s settle included")
+    ap.add_argument("--repeat", type=int, default=2)
+    ap.add_argument("--ref", type=int, default=256, help="variants of the C float64 reference")
+    ap.add_argument("--backend", default="warp", choices=["warp", "mjx"])
+    ap.add_argument("--label", help="machine label for the file name (default: the GPU's kind or cpu-Ncore)")
+    ap.add_argument("--out", help="JSON path (default benchmarks/results/LABEL-soil.json)")
+    args = ap.parse_args(argv)
+    import jax
+
+    from batchveh.model.vehicle import CORNERS
+
+    tab = soil_table(args.size)
+    rows = {m: [] for m in SOIL_MODELS}
+    for m in SOIL_MODELS:  # warm: each program compiled (and Warp's kernels built) before any timing
+        soil_run(m, tab, args.steps, args.backend, "f32")
+    for _ in range(args.repeat):
+        for m in SOIL_MODELS:
+            cols, wall, vsteps = soil_run(m, tab, args.steps, args.backend, "f32")
+            rows[m].append({"wall_s": wall, "rate": vsteps / wall})
+            if m == "soil":
+                got = cols
+    summary = {m: max(r["rate"] for r in rows[m]) for m in SOIL_MODELS}
+    print(f"{'model':<6} {'best rate':>12} {'walls s':>20}")
+    for m in SOIL_MODELS:
+        walls = " ".join(f"{r['wall_s']:.2f}" for r in rows[m])
+        print(f"{m:<6} {summary[m]:12.3e} {walls:>20}")
+    print(f"soil / rigid {summary['soil'] / summary['rigid']:.3f}, soil / slip {summary['soil'] / summary['slip']:.3f}")
+
+    ref_tab = {k: v[: args.ref] for k, v in tab.items()}
+    ref, _, _ = soil_run("soil", ref_tab, args.steps, "mujoco", "f64")
+    c = np.stack([ref[f"drive_{k}_mean"] for k in CORNERS], 1)
+    w = np.stack([np.asarray(got[f"drive_{k}_mean"])[: args.ref] for k in CORNERS], 1)
+    err = (np.abs(w - c) / np.abs(c).max(1, keepdims=True)).max(1)
+    good = (np.asarray(ref["status_code"]) == 0) & ~np.asarray(ref["slipping"]) & np.asarray(ref["steady"])
+    accuracy = {}
+    for name, sel in (("ok, steady, not slipping", good), ("slipping, unsteady or not ok", ~good)):
+        e = err[sel]
+        accuracy[name] = {
+            "variants": int(sel.sum()),
+            **(
+                {"median": float(np.median(e)), "p99": float(np.quantile(e, 0.99)), "max": float(e.max())}
+                if e.size
+                else {}
+            ),
+        }
+        print(f"{args.backend} f32 against C f64, {name}: {accuracy[name]}")
+    result = {
+        "what": "the soil wheel-ground model on the warp engine against rigid and slip; float32 accuracy against C",
+        "device": str(jax.devices()[0]),
+        "host": platform.node(),
+        "size": args.size,
+        "steps": args.steps,
+        "backend": args.backend,
+        "rows": rows,
+        "best_rate": summary,
+        "soil_over_rigid": summary["soil"] / summary["rigid"],
+        "soil_over_slip": summary["soil"] / summary["slip"],
+        "accuracy": accuracy,
+        "slipping_share": float(np.mean(np.asarray(got["slipping"]))),
+    }
+    write_result(result, result_path("soil", args.label, args.out))
 
 
 if __name__ == "__main__":

@@ -2,6 +2,10 @@
 
     python benchmarks/end_to_end.py benchmarks/slope_100k.yaml --label h200
     python benchmarks/end_to_end.py sweeps/slope.yaml --limit 512 --label cpu-2core
+    python benchmarks/end_to_end.py benchmarks/slope_100k.yaml --tree old=/tmp/old --tree new=. --rounds 3
+    python benchmarks/end_to_end.py sweeps/slope.yaml --tyres --rounds 2
+
+Three modes, each run a new process from the repository root into a temporary folder. The default:
 
 Three kinds of run, each a new process (Python start, imports, compile, the sweep, the Parquet
 parts and the summary), from the repository root, into a temporary folder:
@@ -17,6 +21,17 @@ The JSON (--out, default benchmarks/results/LABEL-end-to-end-SPEC[-BACKEND].json
 time, the sweep's own summary (its wall, compile, rate and status counts), the caches it found,
 the load average around it, and the machine, device and versions. The MuJoCo C backend
 compiles nothing, so there the three kinds differ only by the operating system's file cache.
+
+--tree NAME=PATH (twice or more): source trees side by side (was end_to_end_ab.py), e.g. two commits
+(`git archive OLD batchveh | tar -x -C /tmp/old`). Each tree runs once untimed (its XLA program into
+the shared compile cache, Warp's kernels into Warp's), then the trees alternate for --rounds rounds,
+each process with the tree as its working directory (so it imports that tree's batchveh). --env
+NAME:KEY=VALUE sets a variable for one tree. One tree alone times the same code --rounds times.
+JSON: benchmarks/results/LABEL-end-to-end-ab.json.
+
+--tyres: the spec as given (the vehicle's default tyre, `slip`) and a copy with the rigid contact,
+alternated (slip, rigid, slip, ...) on MuJoCo C, --rounds rounds (was tyres_cpu.py); per model the
+best and median wall and sweep times and their ratios. JSON: LABEL-tyres-cpu-SPEC.json.
 """
 
 import argparse
@@ -25,6 +40,7 @@ import os
 import platform
 import re
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -32,8 +48,11 @@ import time
 from importlib import metadata
 from pathlib import Path
 
+import yaml
+
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
+from bench import default_label, result_path, write_result  # noqa: E402
 from cpu_overhead import cpu_model  # noqa: E402
 
 SUMMARY = re.compile(
@@ -124,24 +143,30 @@ def run_once(kind: str, cmd: list[str], env: dict, jax_cache: Path) -> dict:
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("spec", nargs="?", default="sweeps/slope.yaml", help="sweep YAML (default: the main job)")
     ap.add_argument("--limit", type=int, help="run only the first N variants (--limit of the sweep)")
     ap.add_argument("--backend", help="--backend of the sweep (default: the spec's, usually auto)")
     ap.add_argument("--warm", type=int, default=1, help="warm runs after the cold one (default 1)")
-    ap.add_argument("--label", help="machine label for the file name (default: gpu or cpu-Ncore)")
+    ap.add_argument("--label", help="machine label for the file name (default: the GPU's kind or cpu-Ncore)")
     ap.add_argument("--note", default="")
     ap.add_argument("--out", help="JSON path (default benchmarks/results/LABEL-end-to-end-SPEC[-BACKEND].json)")
+    ap.add_argument("--tree", action="append", help="NAME=PATH of a source tree holding batchveh/ (A/B mode)")
+    ap.add_argument("--env", action="append", default=[], help="--tree mode: NAME:KEY=VALUE for one tree")
+    ap.add_argument("--tyres", action="store_true", help="slip against rigid on MuJoCo C, alternated")
+    ap.add_argument("--rounds", type=int, help="--tree / --tyres: rounds (default 3 / 2)")
     args = ap.parse_args()
+    if args.tree:
+        args.rounds = args.rounds or 3
+        return trees_main(args)
+    if args.tyres:
+        args.rounds = args.rounds or 2
+        return tyres_main(args)
 
     found_gpus = gpus()
     backend = f"-{args.backend}" if args.backend else ""
-    label = args.label or ("gpu" if found_gpus else f"cpu-{os.cpu_count()}core")
-    out = (
-        Path(args.out)
-        if args.out
-        else ROOT / "benchmarks" / "results" / f"{label}-end-to-end-{Path(args.spec).stem}{backend}.json"
-    )
+    label = args.label or default_label()
+    out = result_path(f"end-to-end-{Path(args.spec).stem}{backend}", label, args.out)
     sweep = [sys.executable, "-m", "batchveh.sweep", args.spec, "--quiet", "--overwrite"]
     sweep += ["--limit", str(args.limit)] if args.limit else []
     sweep += ["--backend", args.backend] if args.backend else []
@@ -175,9 +200,139 @@ def main():
         "note": args.note,
         "runs": runs,
     }
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(res, indent=1) + "\n")
-    print(f"wrote {out}")
+    write_result(res, out)
+
+
+def run_tree(tree: Path, spec: Path, out: Path, cache: Path, extra: list[str], env: dict[str, str]) -> dict:
+    t = time.perf_counter()
+    done = subprocess.run(
+        [sys.executable, "-m", "batchveh.sweep", str(spec), "--quiet", "--overwrite", "--out", str(out), *extra],
+        cwd=tree,
+        env={**os.environ, "BATCHVEH_CACHE": str(cache), **env},
+        capture_output=True,
+        text=True,
+    )
+    row = {"wall_s": time.perf_counter() - t, "returncode": done.returncode}
+    m = next((SUMMARY.match(x.strip()) for x in done.stdout.splitlines() if SUMMARY.match(x.strip())), None)
+    if m:
+        row.update(sweep_wall_s=float(m["sweep_s"]), compile_s=float(m["compile_s"]), rate=float(m["rate"]))
+        row["status"] = m["status"]
+    else:
+        row["stderr_tail"] = done.stderr.splitlines()[-5:]
+    return row
+
+
+def trees_main(args) -> None:
+    """--tree: source trees alternated, fresh processes, warm caches."""
+    extra = ["--limit", str(args.limit)] if args.limit else []
+    trees = {k: Path(v).resolve() for k, v in (t.split("=", 1) for t in args.tree)}  # a path may repeat
+    spec = Path(args.spec).resolve()
+    envs: dict[str, dict[str, str]] = {name: {} for name in trees}
+    for e in args.env:
+        name, kv = e.split(":", 1)
+        envs[name].update([kv.split("=", 1)])
+    runs = []
+    with tempfile.TemporaryDirectory() as tmp:
+        cache = Path(tmp) / "jax-cache"
+        for name, tree in trees.items():
+            row = run_tree(tree, spec, Path(tmp) / "r", cache, extra, envs[name])
+            print(json.dumps({"tree": name, "kind": "warm-up", **row}), flush=True)
+        for r in range(args.rounds):
+            for name, tree in trees.items():
+                row = {"tree": name, "round": r + 1, **run_tree(tree, spec, Path(tmp) / "r", cache, extra, envs[name])}
+                runs.append(row)
+                print(json.dumps(row), flush=True)
+    summary = {}
+    for name in trees:
+        mine = [x for x in runs if x["tree"] == name]
+        summary[name] = {
+            "wall_s": [round(x["wall_s"], 2) for x in mine],
+            "wall_median_s": statistics.median(x["wall_s"] for x in mine),
+            "sweep_median_s": statistics.median(x.get("sweep_wall_s", float("nan")) for x in mine),
+            "compile_median_s": statistics.median(x.get("compile_s", float("nan")) for x in mine),
+        }
+        s = summary[name]
+        print(f"{name:8} process {s['wall_s']} s (median {s['wall_median_s']:.2f}); sweep {s['sweep_median_s']:.1f} s")
+    info = {
+        "spec": args.spec,
+        "limit": args.limit,
+        "trees": {k: str(v) for k, v in trees.items()},
+        "env": envs,
+        "gpus": gpus(),
+        "date": time.strftime("%Y-%m-%d %H:%M"),
+        "cpus": os.cpu_count(),
+    }
+    out = result_path("end-to-end-ab", args.label, args.out)
+    write_result({"info": info, "runs": runs, "summary": summary}, out)
+
+
+def with_tyre(spec: Path, model: str, folder: Path) -> Path:
+    """A copy of `spec` whose vehicle runs the wheel-ground model `model`."""
+    text = yaml.safe_load(spec.read_text())
+    vehicle = dict(text.get("vehicle") or {})
+    vehicle["tyre"] = {**(vehicle.get("tyre") or {}), "model": model}
+    out = folder / f"{spec.stem}-{model}.yaml"
+    out.write_text(yaml.safe_dump({**text, "vehicle": vehicle}, sort_keys=False))
+    return out
+
+
+def tyres_main(args) -> None:
+    """--tyres: slip against rigid on MuJoCo C, alternated."""
+    spec = Path(args.spec)
+    out = result_path(f"tyres-cpu-{spec.stem}", args.label, args.out)
+    runs = {"slip": [], "rigid": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        specs = {m: with_tyre(ROOT / spec, m, tmp) for m in runs}
+        env = {**os.environ, "BATCHVEH_CACHE": str(tmp / "jax-cache")}
+        for r in range(args.rounds):
+            for model in runs:
+                cmd = [sys.executable, "-m", "batchveh.sweep", str(specs[model]), "--quiet", "--overwrite"]
+                cmd += ["--backend", "mujoco", "--out", str(tmp / "results")]
+                cmd += ["--limit", str(args.limit)] if args.limit else []
+                runs[model].append(run_once(f"{model} {r + 1}", cmd, env, tmp / "jax-cache"))
+    summary = {}
+    for model, rows in runs.items():
+        walls = [row["wall_s"] for row in rows]
+        sweeps = [row["sweep_wall_s"] for row in rows if "sweep_wall_s" in row]
+        summary[model] = {
+            "wall_best_s": min(walls),
+            "wall_median_s": statistics.median(walls),
+            "sweep_best_s": min(sweeps) if sweeps else None,
+            "sweep_median_s": statistics.median(sweeps) if sweeps else None,
+            "status": rows[-1].get("status"),
+        }
+    ok = all(summary[m]["sweep_best_s"] for m in runs)
+    ratios = (
+        {
+            "sweep_best_slip_over_rigid": summary["slip"]["sweep_best_s"] / summary["rigid"]["sweep_best_s"],
+            "wall_best_slip_over_rigid": summary["slip"]["wall_best_s"] / summary["rigid"]["wall_best_s"],
+            "wall_median_slip_over_rigid": summary["slip"]["wall_median_s"] / summary["rigid"]["wall_median_s"],
+        }
+        if ok
+        else {}
+    )
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True)
+    res = {
+        "date": time.strftime("%Y-%m-%d %H:%M"),
+        "spec": str(spec),
+        "limit": args.limit,
+        "backend": "mujoco",
+        "machine": f"{cpu_model()}, {os.cpu_count()} CPUs, {platform.system()}",
+        "code": commit.stdout.strip(),
+        "versions": {"python": platform.python_version(), "mujoco": version("mujoco")},
+        "order": "slip then rigid, alternating, each a fresh process",
+        "summary": summary,
+        "ratios": ratios,
+        "runs": runs,
+    }
+    print(f"{'model':6} {'best wall s':>12} {'median wall s':>14} {'best sweep s':>13}  status")
+    for model, s in summary.items():
+        best = f"{s['wall_best_s']:12.1f} {s['wall_median_s']:14.1f} {s['sweep_best_s'] or 0:13.1f}"
+        print(f"{model:6} {best}  {s['status']}")
+    for k, v in ratios.items():
+        print(f"{k}: {v:.3f}")
+    write_result(res, out)
 
 
 if __name__ == "__main__":

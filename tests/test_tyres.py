@@ -302,7 +302,7 @@ def test_mean_patch_radius_is_the_rectangles_mean_distance(half_length, half_wid
 def test_mujoco_c_wheel_ground_step_is_the_numpy_array_code_in_float64(model):
     """MuJoCo C's engine runs `wheels.step` compiled by XLA (rollout.MujocoTyre); the same step in numpy on
     the same MuJoCo data and state must give the same wrenches and state, in float64 (a float32 slip would
-    show as 1e-7 of the force; measured 6e-30 N, benchmarks/results/cpu-2core-wheel-ground-step.json)."""
+    show as 1e-7 of the force; measured 6e-30 N, benchmarks/results/archive.json: cpu-2core-wheel-ground-step.json)."""
     from mujoco.batch import Batch
 
     from batchveh.model import wheels

@@ -8,12 +8,12 @@ import numpy as np
 from batchveh.stepping.batch import VariantBatch
 
 # warp engine on one H200, elliptic contact: 4.88e6 / 4.98e6 / 4.98e6 variant-steps/s at 65k / 131k / 262k
-# variants (benchmarks/results/h200-warp-elliptic10.json): 131k is as fast as any larger chunk
+# variants (benchmarks/results/archive.json: h200-warp-elliptic10.json): 131k is as fast as any larger chunk
 GPU_CHUNK_MAX = 131072
 GPU_BYTES_PER_VARIANT = 35e3  # measured peak device memory per variant (warp: 4.54 GB at 131072, pyramidal)
 # mujoco: per-chunk costs (Batch setup and reset, the last block's fold, finalize, a Parquet part) are
 # paid once per chunk: 4096 ran 0.81x raw mujoco.batch on 16 cores where 1024 ran 0.73x (median of 4
-# alternated pairs, benchmarks/results/h200-cpu16-overhead.json); on 2 cores 2048 and 1024 tied (0.91x)
+# alternated pairs, benchmarks/results/archive.json: h200-cpu16-overhead.json); on 2 cores 2048 and 1024 tied (0.91x)
 CPU_CHUNK = {"mujoco": 4096, "mjx": 256, "warp": 256}
 
 

@@ -56,7 +56,7 @@ def default_threads() -> int:
     The fold and control threads need about half a core on a 16-core host. Through run_sweep,
     alternated with raw mujoco.batch at its best (benchmarks/cpu_overhead.py, 16 cores, chunks
     of 4096, median of 4 pairs, before the tail fold ran on every CPU): 15 threads 0.81x, 16
-    threads 0.80x (benchmarks/results/h200-cpu16-overhead.json). On 2 cores, 1 thread would
+    threads 0.80x (benchmarks/results/archive.json: h200-cpu16-overhead.json). On 2 cores, 1 thread would
     halve the speed."""
     n = cpus()
     return n - 1 if n >= 8 else n

@@ -66,7 +66,7 @@ class WarpEngine(MjxEngine):
         self.chunk_size = chunk_size
         self.contacts_per_world = contacts_per_world or CONTACTS_PER_WORLD
         # steps per iteration of the scan's loop: 2, 3 and 5 ran no faster than 1 on one H200 (11.06-11.11 s for
-        # 100,000 variants x 2,100 steps, benchmarks/results/h200-warp-unroll.json) and compile longer
+        # 100,000 variants x 2,100 steps, benchmarks/results/archive.json: h200-warp-unroll.json) and compile longer
         self.scan_unroll = 1
 
     @property

@@ -5,7 +5,7 @@ scatter (writing). Under `vmap` the gather puts its index axis first and the var
 so XLA's fusions ran in a (wheel, variant, component) layout that reads MuJoCo's
 (variant, body, component) arrays with a stride per thread: on one H200 the warp engine's tyre
 and statistics took 0.50 ms of XLA kernels per step of 100,000 variants, the largest fusion 0.11
-ms (benchmarks/results/h200-step-profile-indexing.json). Runs of evenly spaced indices (every Layout
+ms (benchmarks/results/archive.json: h200-step-profile-indexing.json). Runs of evenly spaced indices (every Layout
 index array is one or two such runs: the bodies alternate hub and wheel, the motor joints
 steer and drive) are read as strided slices instead, and written by `lax.pad` with interior
 padding: elementwise in the arrays' own layout.

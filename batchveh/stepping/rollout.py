@@ -215,7 +215,7 @@ class MujocoTyre:
     The array code is `wheels.step`, the one the MJX and warp scans run, compiled by XLA for the
     CPU in float64: one fused loop instead of some two hundred numpy passes over the batch (3.0x
     less time per step at 2,048 variants; wrenches equal to numpy's within 6e-14 N,
-    benchmarks/results/cpu-2core-wheel-ground-step.json)."""
+    benchmarks/results/archive.json: cpu-2core-wheel-ground-step.json)."""
 
     def __init__(self, m: mujoco.MjModel, lay: Layout, params: Mapping[str, Any]):
         self.nbody = m.nbody

@@ -62,7 +62,7 @@ MAX_ATTEMPTS = 3  # runs of one chunk before it is reported failed
 MAX_RESTARTS = 3  # restarts of one worker after its process died
 PROBE_WAIT = 0.1  # s between readiness probes of a worker that Ray is restarting
 # This process beside the workers: chunks of at least MIN_SHARED_CHUNK variants (the warp engine's rate is flat from
-# 65k variants up: benchmarks/results/h200-warp-elliptic10.json), up to CHUNKS_PER_GPU of them per GPU, so
+# 65k variants up: benchmarks/results/archive.json: h200-warp-elliptic10.json), up to CHUNKS_PER_GPU of them per GPU, so
 # that a Ray worker that joins late still evens out the end (docs/multi-gpu.md)
 MIN_SHARED_CHUNK = 65536
 CHUNKS_PER_GPU = 8
@@ -70,8 +70,8 @@ POLL = 0.02  # s: a short sleep where nothing is there to wait on
 # One host's GPUs: what Ray's start costs before the first chunk lands, against the same chunk in-process: two
 # Ray workers, 100,000 variants x 10 s in chunks of 50,176, first part at 20.2 s against 12.8-14.6 s (ray.init
 # 3.9 s, the workers' imports and engines 5.2 s, their compile 3.1-3.4 s), on two H200
-# (benchmarks/results/h200x2-ray-scaling.json). A sweep whose simulation on one GPU is shorter than twice this
-# gains nothing from a second GPU and runs in this process alone, Ray not started.
+# (h200x2-ray-scaling.json in benchmarks/results/archive.json). A sweep whose simulation on one GPU is shorter
+# than twice this gains nothing from a second GPU and runs in this process alone, Ray not started.
 RAY_START_S = 7.4
 # variant-steps/s of one GPU, slip tyre: warp 1.93e7 between the parts of 1,000,000 x 10 s (same file), MJX's JAX
 # implementation 2.9e6 (h200-tyres-mjx.json); slower models only make the estimate run in this process more often
