@@ -347,18 +347,21 @@ def render() -> str:
     return notes.replace(MARK, "\n".join(lines)).rstrip() + "\n"
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--check", action="store_true", help="exit 1 if docs/performance.md differs from what this writes")
-    args = ap.parse_args()
-    text = render()
-    if args.check:
-        if OUT.read_text() != text:
-            sys.exit(f"{OUT} is not what benchmarks/render.py writes: run python benchmarks/render.py")
-        print(f"{OUT} is up to date")
+def publish(out: Path, text: str, script: str, doc: str) -> None:
+    """Write a generated page, or with --check exit 1 where the committed one differs (validation/render.py too)."""
+    ap = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--check", action="store_true", help=f"exit 1 if {out.name} differs from what this writes")
+    if ap.parse_args().check:
+        if out.read_text() != text:
+            sys.exit(f"{out} is not what {script} writes: run python {script}")
+        print(f"{out} is up to date")
         return
-    OUT.write_text(text)
-    print(f"wrote {OUT} ({len(text.splitlines())} lines)")
+    out.write_text(text)
+    print(f"wrote {out} ({len(text.splitlines())} lines)")
+
+
+def main() -> None:
+    publish(OUT, render(), "benchmarks/render.py", __doc__)
 
 
 if __name__ == "__main__":
