@@ -10,6 +10,13 @@ Four ways of starting `python -m batchveh.sweep SPEC`, alternating, each a fresh
 - `overlap`: a thread puts one float on the GPU (and waits for it) while the main thread goes on;
 - `no-prealloc`: XLA_PYTHON_CLIENT_PREALLOCATE=false (JAX does not reserve 75% of the GPU's memory);
 - `overlap+no-prealloc`: both.
+
+With --fresh, the first run on a fresh machine instead (issue 32): each way gets empty caches of its own
+(Warp's kernels, the CUDA driver's, JAX's programs: WARP_CACHE_PATH, CUDA_CACHE_PATH, BATCHVEH_CACHE), then a
+second, warm run on them. Ways: `prebuild` (the warp engine builds MuJoCo Warp's per-file modules on every
+core while it prepares, the default) and `serial` (BATCHVEH_WARP_PREBUILD=0: each module builds at its first
+launch). Each first run also records when each kernel module landed in Warp's cache (s after the start).
+Results: benchmarks/results/h200-first-gpu-run.json.
 """
 
 import argparse
@@ -39,7 +46,10 @@ def main():
     ap.add_argument("spec")
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--out", required=True)
+    ap.add_argument("--fresh", action="store_true", help="first runs on empty caches, prebuild against serial")
     args = ap.parse_args()
+    if args.fresh:
+        return fresh(args)
     ways = {
         "plain": ([sys.executable, "-m", "batchveh.sweep"], {}),
         "overlap": ([sys.executable, "-c", OVERLAP], {}),
@@ -77,6 +87,64 @@ def main():
     for name, s in summary.items():
         print(f"{name:22} best {s['wall_best_s']:6.1f} s  median {s['wall_median_s']:6.1f} s")
     Path(args.out).write_text(json.dumps({"spec": args.spec, "runs": runs, "summary": summary}, indent=1) + "\n")
+
+
+def _run(spec: str, out: Path, env: dict) -> dict:
+    start, t = time.time(), time.perf_counter()
+    done = subprocess.run(
+        [sys.executable, "-m", "batchveh.sweep", spec, "--quiet", "--overwrite", "--out", str(out)],
+        cwd=ROOT,
+        env={**os.environ, **env},
+        capture_output=True,
+        text=True,
+    )
+    row = {"wall_s": time.perf_counter() - t, "returncode": done.returncode, "start": start}
+    m = next((SUMMARY.match(x.strip()) for x in done.stdout.splitlines() if SUMMARY.match(x.strip())), None)
+    if m:
+        row.update(sweep_wall_s=float(m["sweep_s"]), compile_s=float(m["compile_s"]), status=m["status"])
+    else:
+        row["stderr_tail"] = done.stderr.splitlines()[-5:]
+    return row
+
+
+def _landed(cache: Path, start: float) -> list[list]:
+    """(module folder, s after the start when its last file landed), in order."""
+    out = []
+    for d in cache.rglob("*") if cache.exists() else []:  # Warp keeps its modules under a version folder
+        files = [f for f in d.iterdir() if f.is_file()] if d.is_dir() else []
+        if files:
+            out.append([d.name, round(max(f.stat().st_mtime for f in files) - start, 2)])
+    return sorted(out, key=lambda x: x[1])
+
+
+def fresh(args) -> None:
+    ways = {"serial": {"BATCHVEH_WARP_PREBUILD": "0"}, "prebuild": {}}
+    runs = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for r in range(args.rounds):
+            for name, extra in ways.items():
+                caches = Path(tmp) / f"{name}-{r}"
+                env = {
+                    **extra,
+                    "WARP_CACHE_PATH": str(caches / "warp"),
+                    "CUDA_CACHE_PATH": str(caches / "cuda"),
+                    "BATCHVEH_CACHE": str(caches / "batchveh"),
+                }
+                for kind in ("first", "warm"):
+                    row = {"way": name, "kind": kind, "round": r + 1, **_run(args.spec, Path(tmp) / "r", env)}
+                    if kind == "first":
+                        row["modules_landed_s"] = _landed(caches / "warp", row["start"])
+                    runs.append(row)
+                    print(json.dumps({k: v for k, v in row.items() if k != "modules_landed_s"}), flush=True)
+    summary = {
+        f"{name} {kind}": sorted(x["wall_s"] for x in runs if x["way"] == name and x["kind"] == kind)
+        for name in ways
+        for kind in ("first", "warm")
+    }
+    for name, walls in summary.items():
+        print(f"{name:16} wall " + " / ".join(f"{w:.1f} s" for w in walls))
+    doc = {"spec": args.spec, "fresh": True, "runs": runs, "summary_wall_s": summary}
+    Path(args.out).write_text(json.dumps(doc, indent=1) + "\n")
 
 
 if __name__ == "__main__":

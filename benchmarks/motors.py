@@ -8,6 +8,14 @@ alternated: `servo` (the default vehicle) and `dcmotor` (the same vehicle with
 notebooks/motor_catalogue.yaml's maxon 353297 on a 40:1 planetary unit at every wheel and steering
 joint). Each run's process wall and the sweep's own rate; the ratio of the medians of the rates.
 Writes benchmarks/results/LABEL-motors.json (or --out) and prints a table.
+
+    python benchmarks/motors.py compare WARP_RESULTS C_RESULTS --label h200-warp-vs-cpu-2core-c
+
+Warp (float32) against MuJoCo C (float64), two result folders of benchmarks/motors_warp_vs_c.yaml (motors near
+their limits): per drive, over the variants, the relative difference |warp - C| / max(|C|, 1% of C's p99 of the
+column) of current RMS, winding temperature rise (peak less ambient), energy drawn, speed shortfall and the
+shares at the voltage line and the current limit; for the vehicle, bus energy and peak power; p50, p99, max
+and the share over 2%, and how often motor_status agrees. Writes benchmarks/results/LABEL-dcmotor-compare.json.
 """
 
 import argparse
@@ -35,7 +43,60 @@ DCMOTOR = {
 }
 
 
+DRIVES = ("drive_lf", "drive_rf", "drive_lr", "drive_rr")
+PER_DRIVE = ("current_rms", "winding_temp_rise", "energy_drawn", "speed_shortfall", "at_voltage_share",
+             "at_current_share")  # fmt: skip
+
+
+def compare(a: str, b: str, label: str, out: str | None) -> dict:
+    """Warp (a) against MuJoCo C (b): the module's docstring."""
+    import batchveh
+
+    w, c = (batchveh.load(x).set_index("variant").sort_index() for x in (a, b))
+    if not w.index.equals(c.index):
+        raise SystemExit("compare: the two folders hold different variants")
+
+    def column(df, m, stat):
+        if stat == "winding_temp_rise":
+            return df[f"{m}_winding_temp_peak"].to_numpy() - 25.0  # the spec's motors' ambient (deg C)
+        return df[f"{m}_{stat}"].to_numpy()
+
+    def summary(rel):
+        return {"p50": float(np.median(rel)), "p99": float(np.percentile(rel, 99)), "max": float(rel.max()),
+                "share_over_2pct": float(np.mean(rel > 0.02))}  # fmt: skip
+
+    def rel(x, ref):
+        return np.abs(x - ref) / np.maximum(np.abs(ref), 0.01 * np.percentile(np.abs(ref), 99))
+
+    result = {"machine": machine(), "when": time.strftime("%Y-%m-%d %H:%M:%S"), "warp": a, "c": b,
+              "variants": len(c), "per_drive": {}, "vehicle": {}}  # fmt: skip
+    for stat in PER_DRIVE:
+        r = np.concatenate([rel(column(w, m, stat), column(c, m, stat)) for m in DRIVES])
+        result["per_drive"][stat] = summary(r)
+    for col in ("bus_energy_wh", "bus_power_peak"):
+        result["vehicle"][col] = summary(rel(w[col].to_numpy(), c[col].to_numpy()))
+    result["motor_status_agree"] = float((w["motor_status"] == c["motor_status"]).mean())
+    result["motor_status_c"] = c["motor_status"].value_counts().to_dict()
+    for k, v in {**result["per_drive"], **result["vehicle"]}.items():
+        print(f"{k:20s} p50 {v['p50']:.2e}  p99 {v['p99']:.2e}  max {v['max']:.2e}  over 2% {v['share_over_2pct']:.4f}")
+    print(f"motor_status agrees on {result['motor_status_agree']:.2%} of {len(c):,} variants")
+    path = Path(out or ROOT / "benchmarks" / "results" / f"{label}-dcmotor-compare.json")
+    path.write_text(json.dumps(result, indent=1, default=str))
+    print(f"wrote {path}")
+    return result
+
+
 def main() -> None:
+    if len(sys.argv) > 1 and sys.argv[1] == "compare":
+        q = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+        q.add_argument("part")
+        q.add_argument("warp")
+        q.add_argument("c")
+        q.add_argument("--label", default="local")
+        q.add_argument("--out")
+        x = q.parse_args()
+        compare(x.warp, x.c, x.label, x.out)
+        return
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--size", type=int, default=2048)
     p.add_argument("--time", type=float, default=2.0, help="simulated seconds per variant")

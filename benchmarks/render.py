@@ -144,6 +144,16 @@ def _motors(d: dict) -> str:
 
 
 def _gpu_start(d: dict) -> str:
+    if d.get("fresh"):  # the first run on a fresh machine: the warp engine's prebuild against serial builds
+        s = d["summary_wall_s"]
+
+        def span(k):
+            return f"{min(s[k]):.1f}-{max(s[k]):.1f} s"
+
+        return (
+            f"first run on empty caches **{span('prebuild first')}** with the prebuild against "
+            f"{span('serial first')} serial; warm runs {span('prebuild warm')} / {span('serial warm')}"
+        )
     s = d["summary"]
     return (
         f"median process {s['no-prealloc']['wall_median_s']:.1f} s grown on demand against "
@@ -152,6 +162,7 @@ def _gpu_start(d: dict) -> str:
 
 
 H200 = "one H200 (nvidia-h200 kind), 16 cores"
+DC_COMPARED = ("current_rms", "winding_temp_rise", "energy_drawn", "speed_shortfall")
 H200_UNNAMED = "one H200 (nvidia-h200 kind; the file names no GPU)"
 TWO_CORES = "this project's 2-core machine"
 ROWS = [
@@ -289,6 +300,21 @@ ROWS = [
         "`benchmarks/structural_warp_vs_c.yaml`",
     ),
     Row(
+        "Motors in the loop near their limits, warp float32 against MuJoCo C float64, 2,048 random variants x 10 s "
+        "(current RMS, temperature rise, energy, speed shortfall per drive; bus energy)",
+        ["h200-warp-vs-cpu-2core-c-dcmotor-compare.json"],
+        lambda d: (
+            "p99 **"
+            + f"{max(d['per_drive'][k]['p99'] for k in DC_COMPARED):.1e}"
+            + "** (the largest of the four), bus energy p99 "
+            + f"{d['vehicle']['bus_energy_wh']['p99']:.1e}; motor_status agrees on "
+            + f"{d['motor_status_agree']:.2%}"
+        ),
+        "one H200 (warp); 2 cores (C)",
+        "`python benchmarks/motors.py compare WARP_RESULTS C_RESULTS` on two runs of "
+        "`benchmarks/motors_warp_vs_c.yaml`",
+    ),
+    Row(
         "Motors in the loop: the same random sweep with the ideal servo and with dcmotors, alternated",
         ["*-motors*.json"],
         _motors,
@@ -298,6 +324,15 @@ ROWS = [
             if d["machine"].get("gpus")
             else "`python benchmarks/motors.py --size 2048 --time 2 --repeat 3`"
         ),
+    ),
+    Row(
+        "The first GPU run on a fresh machine, `benchmarks/slope_100k.yaml` end to end (100,000 x 10 s), each way on "
+        "its own empty caches, then warm: Warp's per-file modules built on every core (prebuild) against at first "
+        "launch (serial)",
+        ["h200-first-gpu-run.json"],
+        _gpu_start,
+        H200,
+        "`python benchmarks/gpu_start.py benchmarks/slope_100k.yaml --fresh --rounds 1`",
     ),
     Row(
         "Starting a sweep process on a GPU: JAX's memory grown on demand against reserved at start, alternated",

@@ -196,7 +196,15 @@ def _catalogue(tmp_path, **drive):
 
 def _dc_vehicle(path):
     return dataclasses.replace(
-        Vehicle(), motors=Motors(model="dcmotor", catalogue=path, drive="drive-test", steer="steer-test")
+        Vehicle(),
+        motors=Motors(
+            model="dcmotor",
+            catalogue=path,
+            drive="drive-test",
+            steer="steer-test",
+            dc_drive_kp=Motors().drive_kp,
+            dc_drive_kv=Motors().drive_kv,
+        ),
     )
 
 

@@ -159,7 +159,7 @@ class MujocoEngine:
         tyre = _TyreStepper(b, m, lay, batch.params) if lay.applied else None
         b.reset()
         radius = np.asarray(batch.params["wheel.radius"], np.float64)[:, None]
-        damping = servo_damping(batch.params, self.scenario.towing)[:, None, :]  # (n, 1, 8)
+        damping = servo_damping(batch.params, self.scenario.towing, dcmotor=lay.dcmotor)[:, None, :]  # (n, 1, 8)
         # motor joint speeds before each block's first step: after reset, then each block's last
         first = np.array(b.qvel)[:, lay.motor_dof]
         dt = m.opt.timestep

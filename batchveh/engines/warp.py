@@ -19,6 +19,9 @@ collides every geom pair MuJoCo C does (cylinder wheels on boxes included).
 
 from __future__ import annotations
 
+import os
+import threading
+
 import jax
 import mujoco
 import numpy as np
@@ -42,6 +45,27 @@ def constraint_rows(m: mujoco.MjModel, contacts: int) -> int:
     per_contact = condim if m.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC else max(1, 2 * (condim - 1))
     limits = int(np.count_nonzero(m.jnt_limited)) * 2
     return int(np.count_nonzero(m.dof_frictionloss)) + limits + 6 * m.neq + contacts * per_contact
+
+
+MUJOCO_WARP = "mujoco.mjx.third_party.mujoco_warp._src"  # MuJoCo Warp's kernels, as MJX 3.17 vendors them
+
+
+def prebuild(device: str) -> None:
+    """Build (or load from Warp's kernel cache) MuJoCo Warp's per-file kernel modules on `device`, all at
+    once on every CPU core, while the engine prepares its first chunk. Warp otherwise builds each module
+    at its first launch, one after another (about 50 s on a fresh machine, issue 32); kernels that
+    MuJoCo Warp makes per model ("unique" modules) still build at their first launch. BATCHVEH_WARP_PREBUILD=0
+    turns it off (benchmarks/gpu_start.py compares both)."""
+    import importlib
+
+    import warp
+
+    try:
+        importlib.import_module(MUJOCO_WARP.rsplit(".", 1)[0])  # registers its modules with Warp
+        with warp.ScopedLogLevel(warp.LOG_ERROR):
+            warp.load_module(MUJOCO_WARP, device=device, recursive=True, max_workers=os.cpu_count() or 1)
+    except Exception:  # noqa: BLE001 - a head start only: the first launch builds whatever is missing, and says why
+        pass
 
 
 class WarpEngine(MjxEngine):
@@ -68,6 +92,8 @@ class WarpEngine(MjxEngine):
         # steps per iteration of the scan's loop: 2, 3 and 5 ran no faster than 1 on one H200 (11.06-11.11 s for
         # 100,000 variants x 2,100 steps, benchmarks/results/archive.json: h200-warp-unroll.json) and compile longer
         self.scan_unroll = 1
+        if self.devices[0].platform == "gpu" and os.environ.get("BATCHVEH_WARP_PREBUILD", "1") != "0":
+            threading.Thread(target=prebuild, args=(f"cuda:{self.devices[0].id}",), daemon=True).start()
 
     @property
     def implementation(self) -> str:

@@ -31,7 +31,14 @@ from batchveh.model.vehicle import Vehicle, numeric_paths, replace_path
 Acts = Literal["static", "model", "structure", "control"]
 
 STATIC = ("time_step", "total_time")
-GAINS = ("motors.drive_kp", "motors.drive_kv", "motors.steer_kp", "motors.steer_kv")
+GAINS = (
+    "motors.drive_kp",
+    "motors.drive_kv",
+    "motors.steer_kp",
+    "motors.steer_kv",
+    "motors.dc_drive_kp",
+    "motors.dc_drive_kv",
+)
 MODEL = ("slope_deg", "gravity", "friction", *GAINS)
 
 

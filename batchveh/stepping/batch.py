@@ -75,8 +75,8 @@ def _gains(m: mujoco.MjModel, p: Mapping[str, Any], towing) -> tuple[np.ndarray,
     if lay.dcmotor:  # the on-board controller's kp and kd, in torque space at the motor: the wheel's / N^2
         drive, steer = lay.motor_act[:4], lay.motor_act[4:]
         for ids, key, col, scale in (
-            (drive, "motors.drive_kp", DC_KP, free),
-            (drive, "motors.drive_kv", DC_KD, free),
+            (drive, "motors.dc_drive_kp", DC_KP, free),
+            (drive, "motors.dc_drive_kv", DC_KD, free),
             (steer, "motors.steer_kp", DC_KP, 1.0),
             (steer, "motors.steer_kv", DC_KD, 1.0),
         ):
@@ -94,10 +94,11 @@ def _gains(m: mujoco.MjModel, p: Mapping[str, Any], towing) -> tuple[np.ndarray,
     return gain, bias
 
 
-def servo_damping(p: Mapping[str, Any], towing, xp=np):
-    """kv of each motor's servo, (..., 8) in MOTORS order, N m s/rad (0 on a towing wheel)."""
+def servo_damping(p: Mapping[str, Any], towing, xp=np, dcmotor: bool = False):
+    """kv of each motor's servo, (..., 8) in MOTORS order, N m s/rad (0 on a towing wheel); with dcmotors
+    (`dcmotor`), the drives' controller kd, motors.dc_drive_kv."""
     free = np.array([0.0 if tow else 1.0 for tow in towing])
-    drive = xp.asarray(p["motors.drive_kv"])[..., None] * free
+    drive = xp.asarray(p["motors.dc_drive_kv" if dcmotor else "motors.drive_kv"])[..., None] * free
     steer = xp.asarray(p["motors.steer_kv"])[..., None] * xp.ones(4)
     return xp.concatenate([drive, steer], axis=-1)
 

@@ -18,8 +18,9 @@ Columns, per motor (`drive_lf_current_rms`, ...): current RMS over the steady wi
 the run (A), winding temperature peak and at the end (deg C), energy drawn and regenerated over the
 run (J), the share of the run's steps at the voltage line and at the current limit; for the
 vehicle: the bus's peak power (W, the 8 motors' sum) and its net energy over the run (Wh), and
-`motor_limited`, true where a drive motor spent more than LIMITED_SHARE of the run at a limit (the
-vehicle could not be driven as imposed: its speed tracking error says by how much).
+`motor_limited`, true where a drive motor spent more than LIMITED_SHARE of the run at a limit; per drive,
+its speed shortfall against the imposed speed over the steady window; and `motor_status`: ok, limited, short
+(could not keep up) or stalled.
 """
 
 from __future__ import annotations
@@ -33,6 +34,9 @@ from batchveh.model.motors import COPPER_TEMPCOEF, REFERENCE_TEMP
 from batchveh.model.vehicle import MOTORS
 
 LIMITED_SHARE = 0.01  # a drive motor at its voltage line or current limit for more than 1% of the run
+SHORT_SHARE = 0.02  # a drive's steady mean speed more than 2% below the imposed speed: the vehicle could not keep up
+STALL_SHARE = 0.9  # ... more than 90% below it: stalled
+MOTOR_STATUS = ("ok", "limited", "short", "stalled")  # motor_status_code -> motor_status (finalize's docstring)
 AT_LIMIT_RTOL = 1e-6  # |v| >= V (1 - this), |F| >= F_max (1 - this)
 _PER_MOTOR = {
     "current_rms": ("A", "RMS motor current over the steady window"),
@@ -44,10 +48,18 @@ _PER_MOTOR = {
     "at_voltage_share": ("1", "share of the run's steps at the voltage line (the bus voltage)"),
     "at_current_share": ("1", "share of the run's steps at the current limit"),
 }
+_DRIVE = {
+    "speed_shortfall": ("1", "steady mean wheel speed below the imposed speed, relative to it (negative: faster)"),
+}
 _VEHICLE = {
     "bus_power_peak": ("W", "peak electrical power of the 8 motors together (drawn), run after the settle"),
     "bus_energy_wh": ("Wh", "net electrical energy of the 8 motors over the run after the settle"),
     "motor_limited": ("", "a drive motor spent more than 1% of the run at its voltage line or current limit"),
+    "motor_status": (
+        "",
+        "ok; limited (a drive at a limit for more than 1% of the run, speeds within 2%); short (a drive's steady "
+        "speed more than 2% below the imposed); stalled (more than 90% below)",
+    ),
 }
 
 
@@ -154,8 +166,11 @@ def update(c: dict[str, Any], e: dict[str, Any], w, wr, dt: float, xp=np) -> dic
     return out
 
 
-def finalize(c: dict[str, Any], n_window, xp=np) -> dict[str, Any]:
-    """The columns: per motor and for the vehicle (the module's docstring)."""
+def finalize(c: dict[str, Any], n_window, speed_err, speed_ref, xp=np) -> dict[str, Any]:
+    """The columns: per motor and for the vehicle (the module's docstring). speed_err, speed_ref (..., 4):
+    the drives' wheel speed less the imposed, and the imposed, summed over the steady window (stats' carry).
+    `motor_status_code` indexes MOTOR_STATUS: 3 stalled if a drive's shortfall exceeds STALL_SHARE, else 2
+    short past SHORT_SHARE, else 1 limited where motor_limited, else 0."""
     n_run = xp.maximum(c["n_run"], 1.0)[..., None]
     per = {
         "current_rms": xp.sqrt(c["i_sumsq"] / xp.maximum(n_window, 1.0)[..., None]),
@@ -172,6 +187,14 @@ def finalize(c: dict[str, Any], n_window, xp=np) -> dict[str, Any]:
     cols["bus_energy_wh"] = c["bus_energy"] / 3600.0
     limited = xp.maximum(per["at_voltage_share"], per["at_current_share"])[..., :4]
     cols["motor_limited"] = xp.max(limited, axis=-1) > LIMITED_SHARE
+    moving = xp.abs(speed_ref) > 1e-9
+    shortfall = xp.where(moving, -speed_err / xp.where(moving, xp.abs(speed_ref), 1.0), 0.0)
+    for j, m in enumerate(MOTORS[:4]):
+        cols[f"{m}_speed_shortfall"] = shortfall[..., j]
+    worst = xp.max(shortfall, axis=-1)
+    cols["motor_status_code"] = xp.where(
+        worst > STALL_SHARE, 3, xp.where(worst > SHORT_SHARE, 2, xp.where(cols["motor_limited"], 1, 0))
+    )
     return cols
 
 
@@ -179,6 +202,10 @@ def column_doc(name: str) -> tuple[str, str] | None:
     """(unit, description) of a motor column, or None."""
     if name in _VEHICLE:
         return _VEHICLE[name]
+    for m in MOTORS[:4]:
+        if name.startswith(m + "_") and name[len(m) + 1 :] in _DRIVE:
+            unit, doc = _DRIVE[name[len(m) + 1 :]]
+            return unit, f"{m}: {doc}"
     for m in MOTORS:
         if name.startswith(m + "_") and name[len(m) + 1 :] in _PER_MOTOR:
             unit, doc = _PER_MOTOR[name[len(m) + 1 :]]

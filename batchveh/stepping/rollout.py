@@ -54,7 +54,7 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
     dt = model.opt.timestep
     tp = wheels.params(params, lay.wheel_ground, jnp)
 
-    damping = servo_damping(params, scenario.towing, xp=jnp)
+    damping = servo_damping(params, scenario.towing, xp=jnp, dcmotor=lay.dcmotor)
 
     ratios = jnp.asarray(model.actuator_gear[lay.motor_act, 0]) if lay.dcmotor else None
 
@@ -249,7 +249,7 @@ def mujoco_series(
     """Per-step samples from MuJoCo C (float64), the reference for MJX."""
     lay = layout(m)
     radius = float(params["wheel.radius"])
-    damping = servo_damping({k: float(v) for k, v in params.items()}, scenario.towing)
+    damping = servo_damping({k: float(v) for k, v in params.items()}, scenario.towing, dcmotor=lay.dcmotor)
     rows, prev = [], None
     for d, ctrl in mujoco_steps(m, params, scenario=scenario, n_steps=n_steps):
         if ctrl is not None:

@@ -415,5 +415,5 @@ def finalize(c: dict[str, Any], cfg: StatsConfig, xp=np) -> dict[str, Any]:
     if cfg.mission is not None:
         cols.update(mission_stats.finalize(c["mission"], cfg.mission, xp))
     if cfg.motors is not None:
-        cols.update(motor_stats.finalize(c["motors"], c["n"], xp))
+        cols.update(motor_stats.finalize(c["motors"], c["n"], c["speed_err"], c["speed_ref"], xp))
     return cols

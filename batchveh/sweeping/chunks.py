@@ -22,7 +22,7 @@ import pyarrow as pa
 from batchveh.config import ConfigError
 from batchveh.model import course
 from batchveh.model.params import parameter_specs
-from batchveh.stepping import stats
+from batchveh.stepping import motor_stats, stats
 from batchveh.stepping.batch import apply_solver, make_batch
 from batchveh.sweeping.results import part_table
 from batchveh.sweeping.spec import SweepSpec, sampler_version
@@ -131,8 +131,10 @@ class ChunkRunner:
         c, rows, batch, prepare_s = prepared
         t0 = time.perf_counter()
         res = course.flag(self.engine.run(batch), batch.params, self.spec.scenario.obstacle)
-        cols = {k: np.asarray(v) for k, v in res.items() if k != "status_code"}
+        cols = {k: np.asarray(v) for k, v in res.items() if k not in ("status_code", "motor_status_code")}
         cols["status"] = [stats.STATUS[int(s)] for s in np.asarray(res["status_code"])]
+        if "motor_status_code" in res:  # model dcmotor
+            cols["motor_status"] = np.asarray(motor_stats.MOTOR_STATUS)[np.asarray(res["motor_status_code"], int)]
         frame = pd.concat([rows.reset_index(drop=True), pd.DataFrame(cols)], axis=1)
         meta = {
             **self.meta,
