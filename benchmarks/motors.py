@@ -5,7 +5,7 @@
 
 A random sweep over slope, friction and speed, run by the CLI in fresh processes as a user runs it,
 alternated: `servo` (the default vehicle) and `dcmotor` (the same vehicle with
-notebooks/motor_catalogue.yaml's maxon 353297 on a 40:1 planetary unit at every wheel and steering
+notebooks/motors.yaml's maxon 353297 on a 40:1 planetary unit at every wheel and steering
 joint). Each run's process wall and the sweep's own rate; the ratio of the medians of the rates.
 Writes benchmarks/results/LABEL-motors.json (or --out) and prints a table.
 
@@ -36,7 +36,7 @@ MOTOR = "maxon-353297-48V_NPT025-i40"
 DCMOTOR = {
     "motors": {
         "model": "dcmotor",
-        "catalogue": str(ROOT / "notebooks" / "motor_catalogue.yaml"),
+        "catalogue": str(ROOT / "notebooks" / "motors.yaml"),
         "drive": MOTOR,
         "steer": MOTOR,
     }

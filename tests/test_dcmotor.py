@@ -279,14 +279,14 @@ def test_a_climb_too_steep_for_the_speed_sits_on_the_voltage_line(tmp_path):
 
 
 def test_the_catalogue_holds_six_cited_motors_whose_datasheet_values_agree():
-    """notebooks/motor_catalogue.yaml: every entry loads (K, R and the nominal triple within 5%), at least
+    """notebooks/motors.yaml: every entry loads (K, R and the nominal triple within 5%), at least
     six, each citing its source, with a thermal model and a gearhead."""
     from pathlib import Path
 
     from batchveh.config import load_yaml
     from batchveh.model.motors import load_catalogue
 
-    path = Path(__file__).resolve().parent.parent / "notebooks" / "motor_catalogue.yaml"
+    path = Path(__file__).resolve().parent.parent / "notebooks" / "motors.yaml"
     motors = load_catalogue(path)
     raw = {m["name"]: m for m in load_yaml(path)["motors"]}
     assert len(motors) >= 6

@@ -19,6 +19,7 @@ def test_notebooks_exist():
         "04_obstacles_and_missions.ipynb",
         "05_sensitivity.ipynb",
         "06_rover_on_soil.ipynb",
+        "07_motors_in_the_loop.ipynb",
     ]
 
 

@@ -48,6 +48,10 @@ class Motor:
     corner_speed: float = field(400.0, unit="rad/s", gt=0)
     gear_ratio: float = field(20.0, unit="1", gt=0)
     efficiency: float = field(0.9, unit="1", gt=0, le=1)
+    # a DC motor's voltage line (from_dcmotor): past the corner the limit falls as stall (1 - w / no_load_speed)
+    # rather than as constant power; 0 (the default): constant power
+    stall_torque: float = field(0.0, unit="N m", ge=0)
+    no_load_speed: float = field(0.0, unit="rad/s", ge=0)
 
     def validate(self, where: str = "motor") -> None:
         if self.peak_torque < self.continuous_torque:
@@ -61,6 +65,9 @@ class Motor:
     def torque_limit(self, speed: np.ndarray | float) -> np.ndarray:
         """Peak torque available at motor speed `speed` (rad/s): flat to the corner, then constant power."""
         w = np.abs(np.asarray(speed, float))
+        if self.stall_torque > 0:  # a DC motor: flat to the corner, then its voltage line
+            line = self.stall_torque * (1.0 - w / self.no_load_speed)
+            return np.where(w <= self.max_speed, np.clip(line, 0.0, self.peak_torque), 0.0)
         limit = np.where(
             w <= self.corner_speed, self.peak_torque, self.peak_torque * self.corner_speed / np.maximum(w, 1e-12)
         )
@@ -68,12 +75,46 @@ class Motor:
 
 
 def load_motors(path: str | Path) -> list[Motor]:
-    """Motors from a YAML file with a `motors:` list (or one motor mapping)."""
+    """Motors from a YAML file with a `motors:` list (or one motor mapping): Motor's fields, or a datasheet
+    catalogue (notebooks/motors.yaml, batchveh.model.motors.load_catalogue), each entry seen through
+    `from_dcmotor`."""
     data = load_yaml(path)
     items = data.get("motors", [data]) if isinstance(data, dict) else data
     if not isinstance(items, list) or not items:
         raise ConfigError(f"{path}: motors: expected a non-empty list of motor mappings")
+    if all(isinstance(x, dict) and ("gearhead" in x or "torque_constant" in x or "stall_torque" in x) for x in items):
+        from batchveh.model.motors import load_catalogue
+
+        return [from_dcmotor(m) for m in load_catalogue(path).values()]
     return [from_mapping(Motor, item, f"{path}: motors[{i}]") for i, item in enumerate(items)]
+
+
+def from_dcmotor(motor: Any) -> Motor:
+    """A datasheet motor with its gearhead (batchveh.model.motors.DCMotor) as a torque-speed envelope at the
+    shaft: continuous torque K i_max; peak torque the stall torque K V / R at the bus voltage, or the
+    gearhead's intermittent rating reflected to the shaft where lower; no-load speed V / K (or the
+    gearhead's input speed where lower); the voltage line from stall to no-load beyond the peak
+    (`Motor.stall_torque`), not constant power."""
+    c = motor.resolved()
+    stall = c["K"] * c["V"] / c["R"]
+    peak = stall
+    if motor.gear_max_intermittent_torque is not None:
+        peak = min(peak, motor.gear_max_intermittent_torque / (c["N"] * c["eta"]))
+    continuous = min(c["K"] * c["i_max"], peak) if c["i_max"] else peak
+    w0 = c["V"] / c["K"]
+    top = min(w0, motor.gear_max_input_speed) if motor.gear_max_input_speed is not None else w0
+    corner = min(max(w0 * (1.0 - peak / stall), 1e-9), top)
+    return Motor(
+        name=motor.name,
+        continuous_torque=continuous,
+        peak_torque=peak,
+        max_speed=top,
+        corner_speed=corner,
+        gear_ratio=c["N"],
+        efficiency=c["eta"],
+        stall_torque=stall,
+        no_load_speed=w0,
+    )
 
 
 def check(df: pd.DataFrame, motor: Motor) -> pd.DataFrame:
@@ -273,3 +314,173 @@ def screen(
     table = pd.DataFrame(rows).sort_values("continuous_torque_at_wheel").reset_index(drop=True)
     ok = table[table["coverage"] >= share]
     return (ok["motor"].iloc[0] if len(ok) else None), table, failing
+
+
+# --- the second pass: the screen's survivors in the loop, from the hot steady state ---
+
+IN_LOOP_REASONS = ("voltage", "peak", "speed", "thermal", "energy", "gear_torque", "gear_speed")
+IN_LOOP_TEXT = {
+    "voltage": "fell short of the imposed speed with a drive at its voltage line (the bus voltage)",
+    "peak": "fell short of the imposed speed with a drive at its current limit (not torque enough)",
+    "speed": "fell short of the imposed speed (neither limit held for more than 1% of the run)",
+    "thermal": "a winding above its maximum temperature, from the hot steady state of back-to-back runs",
+    "energy": "the run's bus energy above the battery's, or its peak power above the battery's",
+    "gear_torque": "wheel torque above the gearhead's continuous (RMS) or intermittent (peak) rating",
+    "gear_speed": "motor speed above the gearhead's input speed",
+}
+
+
+@dataclass(frozen=True)
+class Battery:
+    """The battery of a catalogue's `battery:` section (notebooks/motors.yaml; SI, at its terminals)."""
+
+    name: str = "battery"
+    nominal_voltage: float = field(48.0, unit="V", gt=0)
+    capacity: float = field(10.0, unit="A h", gt=0)
+    internal_resistance: float = field(0.1, unit="Ohm", ge=0)
+    max_continuous_discharge_current: float = field(20.0, unit="A", gt=0)
+
+    @property
+    def energy_wh(self) -> float:
+        return self.nominal_voltage * self.capacity
+
+    @property
+    def max_power(self) -> float:
+        """Power at the terminals at the continuous discharge current: (V - I R) I (W)."""
+        i = self.max_continuous_discharge_current
+        return (self.nominal_voltage - i * self.internal_resistance) * i
+
+
+def load_battery(path: str | Path) -> Battery:
+    """The `battery:` section of a catalogue YAML (notebooks/motors.yaml)."""
+    data = load_yaml(path)
+    raw = data.get("battery") if isinstance(data, dict) else None
+    if not isinstance(raw, dict):
+        raise ConfigError(f"{path}: battery: missing; allowed: a mapping of Battery's fields")
+    keep = {k: v for k, v in raw.items() if k in Battery.__dataclass_fields__}
+    return from_mapping(Battery, keep, f"{path}: battery")
+
+
+def _hot_start(gap: np.ndarray, duration: float, tau: float) -> np.ndarray:
+    """The change of start rise that closes `gap` = end(s) - s (back-to-back runs end where they start), one
+    Newton step on the linear one-node model: a start rise s decays as s exp(-t / tau), so end(s) ~ end(0) +
+    s exp(-duration / tau), and from s = 0 the step lands on end(0) / (1 - exp(-duration / tau))."""
+    if tau <= 0:
+        return np.zeros_like(gap)
+    return gap / (1.0 - np.exp(-duration / tau))
+
+
+def in_loop(
+    spec: Any,
+    df: pd.DataFrame,
+    catalogue: str | Path,
+    candidates: list[str],
+    *,
+    steer: str,
+    share: float = 0.99,
+    hot: bool = True,
+    iterations: int = 2,
+    battery: Battery | None = None,
+    backend: str | None = None,
+    stop_at_first: bool = True,
+) -> tuple[str | None, pd.DataFrame, dict[str, pd.DataFrame]]:
+    """Run `candidates` (catalogue names, smallest first) as the drive motors, in the loop, on the variants of
+    `df` (rows of the servo sweep `spec`), steering on `steer`; return (the first candidate that covers
+    `share` of the variants, or None; one row per candidate run; per candidate, its variants' in-the-loop
+    columns and reasons, IN_LOOP_REASONS, True = fails).
+
+    With `hot`, a candidate runs first from ambient, then `iterations` times from the start rise that would
+    make its run end where it started (`_hot_start` from the previous run's end, each drive and steering
+    winding at its group's hottest): the thermal state of back-to-back runs. The row gives the median start
+    rise and the largest |end - start| left (K). `stop_at_first`: stop at the first candidate that covers."""
+    import dataclasses
+
+    from batchveh.engines import make_engine, resolve_backend
+    from batchveh.model.motors import load_catalogue, pick
+    from batchveh.stepping.batch import make_batch
+    from batchveh.stepping.motor_stats import LIMITED_SHARE, MOTOR_STATUS
+
+    if not 0 < share <= 1:
+        raise ConfigError(f"share: {share!r} is not allowed; allowed: 0 < share <= 1")
+    cat = load_catalogue(catalogue)
+    pick(cat, steer, "steer")
+    table = {k: df[k].to_numpy(float) for k in spec.params}
+    name_of = resolve_backend(backend or "mujoco")
+    rows, detail, best = [], {}, None
+    for name in candidates:
+        motor = pick(cat, name, "candidates")
+        c, cs = motor.resolved(name), cat[steer].resolved(steer)
+        motors = dataclasses.replace(
+            spec.vehicle.motors, model="dcmotor", catalogue=str(catalogue), drive=name, steer=steer
+        )
+        run_spec = dataclasses.replace(spec, vehicle=dataclasses.replace(spec.vehicle, motors=motors))
+        cfg = run_spec.stats_config()
+        duration = cfg.n_steps * float(spec.scenario.time_step)
+        engine = make_engine(name_of, spec.scenario, cfg, None, len(df))
+        start = {"motors.drive_start_rise": np.zeros(len(df)), "motors.steer_start_rise": np.zeros(len(df))}
+        taus = {"motors.drive_start_rise": c["t_T"], "motors.steer_start_rise": cs["t_T"]}
+        ambient = {"motors.drive_start_rise": c["T_amb"], "motors.steer_start_rise": cs["T_amb"]}
+        groups = {"motors.drive_start_rise": WHEELS, "motors.steer_start_rise": GROUPS["steer"]}
+        runs = 1 + (iterations if hot else 0)
+        for k in range(runs):
+            cols = engine.run(make_batch(run_spec.vehicle, spec.scenario, {**table, **start}))
+            res = pd.DataFrame({key: np.asarray(v) for key, v in cols.items()})
+            res["motor_status"] = np.asarray(MOTOR_STATUS)[res.pop("motor_status_code").to_numpy(int)]
+            end = {
+                key: res[[f"{m}_winding_temp_end" for m in groups[key]]].max(axis=1).to_numpy() - ambient[key]
+                for key in start
+            }
+            residual = max(float(np.max(np.abs(end[key] - start[key]))) for key in start)
+            if k < runs - 1:  # the next start: one Newton step towards end(s) = s
+                start = {
+                    key: np.maximum(start[key] + _hot_start(end[key] - start[key], duration, taus[key]), 0.0)
+                    for key in start
+                }
+        why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE)
+        fits = ~why.any(axis=1)
+        rows.append(
+            {
+                "motor": name,
+                "gear_ratio": c["N"],
+                "continuous_torque_at_wheel": c["eta"] * c["N"] * c["K"] * c["i_max"] if c["i_max"] else np.nan,
+                "coverage": float(fits.mean()),
+                **{f"fails_{r}": int(why[r].sum()) for r in IN_LOOP_REASONS},
+                "start_rise_median": float(np.median(start["motors.drive_start_rise"])),
+                "residual_K": residual,
+                "runs": runs,
+            }
+        )
+        detail[name] = pd.concat([df.reset_index(drop=True)[list(spec.params)], res, why.add_prefix("fails_")], axis=1)
+        if fits.mean() >= share and best is None:
+            best = name
+            if stop_at_first:
+                break
+    return best, pd.DataFrame(rows), detail
+
+
+def _in_loop_reasons(res: pd.DataFrame, motor: Any, c: dict, battery: Battery | None, limited: float) -> pd.DataFrame:
+    """Per variant of an in-the-loop result, each IN_LOOP_REASONS (True = fails)."""
+    short = res["motor_status"].isin(["short", "stalled"]).to_numpy()
+    v_share = res[[f"{m}_at_voltage_share" for m in WHEELS]].max(axis=1).to_numpy()
+    i_share = res[[f"{m}_at_current_share" for m in WHEELS]].max(axis=1).to_numpy()
+    at_v, at_i = v_share > limited, i_share > limited
+    out = pd.DataFrame(index=res.index)
+    out["voltage"] = short & at_v & (v_share > i_share)  # the limit it spent longer at
+    out["peak"] = short & at_i & (i_share >= v_share)
+    out["speed"] = short & ~at_v & ~at_i
+    out["thermal"] = res[[f"{m}_winding_temp_peak" for m in WHEELS]].max(axis=1).to_numpy() > c["T_max"]
+    energy = np.zeros(len(res), bool)
+    if battery is not None:
+        energy |= res["bus_energy_wh"].to_numpy() > battery.energy_wh
+        energy |= res["bus_power_peak"].to_numpy() > battery.max_power
+    out["energy"] = energy
+    gear = np.zeros(len(res), bool)
+    if motor.gear_max_continuous_torque is not None:
+        gear |= res[[f"{m}_rms" for m in WHEELS]].abs().max(axis=1).to_numpy() > motor.gear_max_continuous_torque
+    if motor.gear_max_intermittent_torque is not None:
+        peak = res[[f"{m}_peak_lp_all" for m in WHEELS]].abs().max(axis=1).to_numpy()
+        gear |= peak > motor.gear_max_intermittent_torque
+    out["gear_torque"] = gear
+    speed = res["wheel_speed"].abs().to_numpy() * c["N"]
+    out["gear_speed"] = speed > motor.gear_max_input_speed if motor.gear_max_input_speed is not None else False
+    return out

@@ -158,6 +158,8 @@ class MujocoEngine:
         # the slip tyre acts between steps: bound before the reset, so its forward pass fills them
         tyre = _TyreStepper(b, m, lay, batch.params) if lay.applied else None
         b.reset()
+        if lay.dcmotor and m.na:  # each winding at its start rise (a state field: bind's view writes it)
+            b.bind("act")[:] = motor_stats.start_act(batch.params, lay.motor_thermal_act, m.na)
         radius = np.asarray(batch.params["wheel.radius"], np.float64)[:, None]
         damping = servo_damping(batch.params, self.scenario.towing, dcmotor=lay.dcmotor)[:, None, :]  # (n, 1, 8)
         # motor joint speeds before each block's first step: after reset, then each block's last

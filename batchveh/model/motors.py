@@ -1,6 +1,6 @@
 """DC motors with their gearheads, from datasheet values, as MuJoCo's `dcmotor` actuator (issue 31).
 
-A catalogue entry (`notebooks/motor_catalogue.yaml`) gives a motor as its datasheet does, at the
+A catalogue entry (`notebooks/motors.yaml`) gives a motor as its datasheet does, at the
 motor shaft, and its gearhead. `DCMotor.resolved()` turns it into the constants MuJoCo's dcmotor
 takes (MuJoCo's XML reference, actuator/dcmotor, and its DC motor technical note):
 

@@ -40,6 +40,7 @@ GAINS = (
     "motors.dc_drive_kv",
 )
 MODEL = ("slope_deg", "gravity", "friction", *GAINS)
+START_RISE = ("motors.drive_start_rise", "motors.steer_start_rise")
 
 
 def parameter_specs(vehicle: Vehicle | None = None) -> dict[str, dict[str, Any]]:
@@ -57,6 +58,8 @@ def _acts(name: str, scenario: bool) -> Acts:
     if name in MODEL:
         return "model"
     if name.startswith(("tyre.", "soil.")):  # read by the slip tyre or the soil each step, as a traced value
+        return "control"
+    if name in START_RISE:  # the dcmotors' thermal state at t = 0 (the engines' initial act)
         return "control"
     if name in course.FIELDS:  # the ground's shape: compiled per combination, as the vehicle's geometry
         return "structure"

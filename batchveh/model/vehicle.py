@@ -115,14 +115,18 @@ class Motors:
     steer_kp: float = field(20000.0, unit="N m/rad", ge=0)
     steer_kv: float = field(300.0, unit="N m s/rad", ge=0)
     armature: float = field(0.2, unit="kg m^2", ge=0, doc="rotor inertia reflected through the gearbox")
-    # model dcmotor: the drives' gains at the wheel. dc_drive_kp 0 makes each drive a speed loop: the servo's angle
-    # term, with no anti-windup, winds up while a motor sits at its current limit and then drives the wheel past the
-    # imposed speed to catch up. dc_drive_kv 50, not the servo's 500: MuJoCo 3.17's implicitfast integrates a
-    # dcmotor's controller kd as damping even while its current is clipped, and with 500 the drives of a small
-    # motor on the flat chattered between +-limit in 76% of 96 runs (0% with 50, speed within 0.7% at p99;
-    # docs/motors.md). The servo's values here give the servo's tracking (tests/test_dcmotor.py).
-    dc_drive_kp: float = field(0.0, unit="N m/rad", ge=0, doc="dcmotor drives' angle gain (0: a speed loop)")
+    # model dcmotor: the drives' gains at the wheel (docs/motors.md). kd 50, not the servo's 500: MuJoCo 3.17's
+    # implicitfast integrates a dcmotor controller's kd as damping even while its current is clipped, and with
+    # 500 (angle gain 0) the drives of a small motor on the flat chattered between +-limit in 76% of 96 runs
+    # (0% with 50). The angle gain 200, not 5000: it removes the speed loop's steady error (0.7% at p99 with
+    # none, 3e-5 with 200) with no anti-windup, so a motor held at a limit catches up afterwards. The servo's
+    # values here give the servo's tracking (tests/test_dcmotor.py).
+    dc_drive_kp: float = field(200.0, unit="N m/rad", ge=0, doc="dcmotor drives' angle gain")
     dc_drive_kv: float = field(50.0, unit="N m s/rad", ge=0, doc="dcmotor drives' speed gain")
+    # model dcmotor: each winding's temperature rise over its ambient at t = 0 (K), e.g. the hot steady state of
+    # back-to-back runs (batchveh.analysis.motors.in_loop finds it); read as the thermal state's start value
+    drive_start_rise: float = field(0.0, unit="K", ge=0, doc="dcmotor drives' winding rise at the start")
+    steer_start_rise: float = field(0.0, unit="K", ge=0, doc="dcmotor steering windings' rise at the start")
     # 'servo': the ideal PD servo above (the torque demand); 'dcmotor': each motor is MuJoCo's dcmotor, a
     # catalogue motor with its gearhead (batchveh/model/motors.py) whose on-board PD controller has the
     # gains above (at the wheel) and the bus voltage as its clamp; its rotor inertia replaces `armature`
@@ -452,6 +456,9 @@ class Layout:
     steer_pos_act: np.ndarray
     steer_vel_act: np.ndarray
     motor_act: np.ndarray  # (8,) each motor's dcmotor actuator, MOTORS order (model dcmotor; empty for servo)
+    # (8,) each dcmotor's thermal state in MjData.act (-1: none; empty for servo). batchveh's dcmotors have no
+    # slew or integral state, which MuJoCo would put before it: the thermal state is the actuator's first act
+    motor_thermal_act: np.ndarray
     ground_geom: int
     wheel_geoms: np.ndarray
     chassis_body: int
@@ -491,6 +498,12 @@ def layout(m: mujoco.MjModel) -> Layout:
         steer_pos_act=acts("steer", "p"),
         steer_vel_act=acts("steer", "v"),
         motor_act=np.array([m.actuator(n).id for n in MOTORS]) if dc else np.array([], int),
+        motor_thermal_act=np.array(
+            [m.actuator_actadr[m.actuator(n).id] if m.actuator_dynprm[m.actuator(n).id, 2] > 0 else -1 for n in MOTORS]
+            if dc
+            else [],
+            int,
+        ),
         ground_geom=m.geom(GROUND).id,
         wheel_geoms=np.array([m.geom(f"wheel_{c}").id for c in CORNERS]),
         chassis_body=m.body("chassis").id,

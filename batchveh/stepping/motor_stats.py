@@ -8,7 +8,9 @@ efficiency), per step:
 - the simulated current i' = F / K from the actuator's force F (the torque the motor gives: with
   MuJoCo's current limit, the limited current), the real current i = i' / eta;
 - the winding's temperature T = T_amb + the thermal state (MuJoCo's act), R'(T) = R' (1 + alpha
-  (T - T_ref));
+  (T - T_ref)): the resistance the simulated motor sees. The temperature columns come from batchveh's
+  own integration of the same one-node model with the current the motor delivered (`winding`): MuJoCo
+  3.17's state heats with the current before its current limit clips it;
 - the terminal voltage v = i' R'(T) + K w (w: the motor's speed), and the electrical power v i,
   drawn where positive, regenerated where negative;
 - at the voltage line: |v| >= V (the controller's clamp, the bus voltage); at the current limit:
@@ -74,7 +76,9 @@ class MotorStatsConfig:
     force_max: tuple[float, ...]  # N m at the motor, 0: no current limit
     T_amb: tuple[float, ...]  # deg C
     thermal: tuple[bool, ...]
-    act: tuple[int, ...]  # each motor's thermal state in MjData.act (-1: none)
+    act: tuple[int, ...]
+    R_T: tuple[float, ...] = (0.0,) * 8  # K/W, the winding's one-node thermal resistance (0: no thermal model)
+    C: tuple[float, ...] = (0.0,) * 8  # J/K, its capacitance  # each motor's thermal state in MjData.act (-1: none)
 
     @staticmethod
     def for_vehicle(vehicle: Any) -> MotorStatsConfig | None:
@@ -95,7 +99,27 @@ class MotorStatsConfig:
             T_amb=tuple(c["T_amb"] if c["R_T"] > 0 else REFERENCE_TEMP for c in each),
             thermal=thermal,
             act=act,
+            R_T=tuple(c["R_T"] for c in each),
+            C=tuple(c["C"] for c in each),
         )
+
+
+def start_act(params: Any, index: np.ndarray, na: int, xp=np, dtype=None) -> Any:
+    """MjData.act at t = 0 (..., na): each thermal state at its motor's start rise (params
+    `motors.drive_start_rise`, `motors.steer_start_rise`, per variant), the rest 0."""
+    drive = xp.asarray(params["motors.drive_start_rise"], dtype)
+    steer = xp.asarray(params["motors.steer_start_rise"], dtype)
+    act = xp.zeros((*xp.shape(drive), na), dtype=dtype or drive.dtype)
+    for j, k in enumerate(index):
+        if k >= 0:
+            value = drive if j < 4 else steer
+            act = act.at[..., int(k)].set(value) if xp is not np else _set(act, int(k), value)
+    return act
+
+
+def _set(act: np.ndarray, k: int, value: Any) -> np.ndarray:
+    act[..., k] = value
+    return act
 
 
 def sample(force, velocity, act, cfg: MotorStatsConfig, xp=np) -> dict[str, Any]:
@@ -135,6 +159,7 @@ def init(batch: tuple[int, ...], xp=np, dtype=None) -> dict[str, Any]:
         "i_peak": z(8),
         "t_peak": z(8, fill=-np.inf),
         "t_end": z(8),
+        "T": z(8, fill=np.nan),  # the winding's temperature, batchveh's integration (update); NaN: not started
         "drawn": z(8),
         "regen": z(8),
         "n_v": z(8),
@@ -144,9 +169,24 @@ def init(batch: tuple[int, ...], xp=np, dtype=None) -> dict[str, Any]:
     }
 
 
-def update(c: dict[str, Any], e: dict[str, Any], w, wr, dt: float, xp=np) -> dict[str, Any]:
+def winding(temp, current, cfg: MotorStatsConfig, dt: float, xp=np):
+    """The windings' temperature after one step of `dt` from `temp` (..., 8) with the motors' real current
+    (..., 8): C dT/dt = i^2 R (1 + alpha (T - 25)) - (T - T_amb) / R_T, explicit Euler (dt / tau < 3e-4 for
+    the catalogue's windings at 5 ms). MuJoCo 3.17's own thermal state heats with the current before the
+    current limit clips it (model/motors.py); this one heats with the current the motor delivered."""
+    r_t, cap = xp.asarray(cfg.R_T, current.dtype), xp.asarray(cfg.C, current.dtype)
+    thermal = xp.asarray(cfg.thermal)
+    r0 = xp.asarray(cfg.R, current.dtype) * xp.asarray(cfg.eta, current.dtype)  # the real winding's R at 25 C
+    t_amb = xp.asarray(cfg.T_amb, current.dtype)
+    heat = current * current * r0 * (1 + COPPER_TEMPCOEF * (temp - REFERENCE_TEMP))
+    cool = (temp - t_amb) / xp.where(thermal, r_t, 1.0)
+    return xp.where(thermal, temp + dt * (heat - cool) / xp.where(thermal, cap, 1.0), t_amb)
+
+
+def update(c: dict[str, Any], e: dict[str, Any], w, wr, dt: float, cfg: MotorStatsConfig, xp=np) -> dict[str, Any]:
     """Fold a block's samples `e` (..., B, 8); w, wr (B,): 1.0 at steps inside the steady window, past
-    the settle."""
+    the settle. The winding temperatures are integrated here step by step (`winding`), from MuJoCo's
+    thermal state after the first step (its start rise, `start_act`)."""
     wk, wrk = w[:, None], wr[:, None]
     cur, power = e["current"], e["power"]
     run = wr > 0
@@ -155,8 +195,11 @@ def update(c: dict[str, Any], e: dict[str, Any], w, wr, dt: float, xp=np) -> dic
     out["n_run"] = c["n_run"] + wr.sum()
     out["i_sumsq"] = c["i_sumsq"] + (wk * cur * cur).sum(-2)
     out["i_peak"] = xp.maximum(c["i_peak"], xp.where(run[:, None], xp.abs(cur), 0.0).max(-2))
-    out["t_peak"] = xp.maximum(c["t_peak"], xp.where(run[:, None], e["temp"], -np.inf).max(-2))
-    out["t_end"] = e["temp"][..., -1, :]
+    temp, peak = xp.where(xp.isnan(c["T"]), e["temp"][..., 0, :], c["T"]), c["t_peak"]
+    for k in range(cur.shape[-2]):  # one step on the warp engine's scan; MuJoCo C's block, in turn
+        temp = winding(temp, cur[..., k, :], cfg, dt, xp)
+        peak = xp.maximum(peak, xp.where(run[k], temp, -np.inf))
+    out["T"], out["t_peak"], out["t_end"] = temp, peak, temp
     out["drawn"] = c["drawn"] + (wrk * xp.maximum(power, 0.0)).sum(-2) * dt
     out["regen"] = c["regen"] + (wrk * xp.maximum(-power, 0.0)).sum(-2) * dt
     out["n_v"] = c["n_v"] + (wrk * e["at_v"]).sum(-2)

@@ -145,13 +145,22 @@ def mjx_stats(
         return (d, (stats.update(acc, block, i[None], cfg, xp=jnp), at_limit)), None
 
     body = _scan(model, params, scenario, lay, out, cfg.motors)
-    d0 = mjx.make_data(model) if data is None else data.replace(qpos=model.qpos0.astype(data.qpos.dtype))
+    d0 = _start(model, params, lay, data)
     init = (_init(model, d0), (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
     (_, (acc, at_limit)), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps), unroll=unroll)
     cols = stats.finalize(acc, cfg, xp=jnp)
     if health:
         cols["solver_limit_share"] = at_limit.astype(dtype) / cfg.n_steps
     return cols
+
+
+def _start(model: mjx.Model, params: Mapping[str, Any], lay: Layout, data: mjx.Data | None) -> mjx.Data:
+    """The initial data: the variant's own qpos0, and with dcmotors each winding at its start rise."""
+    d0 = mjx.make_data(model) if data is None else data.replace(qpos=model.qpos0.astype(data.qpos.dtype))
+    if lay.dcmotor and d0.act.shape[-1]:
+        act = motor_stats.start_act(params, lay.motor_thermal_act, d0.act.shape[-1], jnp, d0.act.dtype)
+        d0 = d0.replace(act=act)
+    return d0
 
 
 def mjx_series(
@@ -169,7 +178,7 @@ def mjx_series(
         return (d, acc), s
 
     body = _scan(model, params, scenario, lay, out)
-    d0 = mjx.make_data(model) if data is None else data.replace(qpos=model.qpos0.astype(data.qpos.dtype))
+    d0 = _start(model, params, lay, data)
     _, series = jax.lax.scan(body, (_init(model, d0), ()), jnp.arange(n_steps))
     return series
 
@@ -194,6 +203,8 @@ def mujoco_steps(
     sim_ctrls = ctrls
     if lay.dcmotor:  # the motors' setpoints: the drive angles integrated step by step, as an integrator's act
         sim_ctrls, _ = dc_schedule(ctrls, np.zeros(4), m.actuator_gear[lay.motor_act, 0], m.opt.timestep)
+    if lay.dcmotor and m.na:  # each winding at its start rise
+        d.act[:] = motor_stats.start_act(p, lay.motor_thermal_act, m.na)
     mujoco.mj_forward(m, d)
     yield d, None
     for i in range(n_steps):

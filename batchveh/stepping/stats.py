@@ -359,7 +359,7 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
     if cfg.mission is not None:
         out["mission"] = mission_stats.update(c["mission"], tau, abs_lp, s, i, cfg.mission, xp)
     if cfg.motors is not None:
-        out["motors"] = motor_stats.update(c["motors"], s["motors"], w, wr, cfg.dt, xp)
+        out["motors"] = motor_stats.update(c["motors"], s["motors"], w, wr, cfg.dt, cfg.motors, xp)
     return out
 
 
