@@ -24,11 +24,17 @@ print(json.dumps({"devices": len(jax.devices()), "chunk": be.chunk_size,
 """
 
 
-def _run(n_devices):
+def _start(n_devices):
     env = {**os.environ, "XLA_FLAGS": f"--xla_force_host_platform_device_count={n_devices}", "JAX_PLATFORMS": "cpu"}
-    out = subprocess.run([sys.executable, "-c", _SCRIPT], capture_output=True, text=True, env=env, timeout=600)
-    assert out.returncode == 0, out.stderr[-3000:]
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return subprocess.Popen(
+        [sys.executable, "-c", _SCRIPT], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
+    )
+
+
+def _result(proc):
+    stdout, stderr = proc.communicate(timeout=600)
+    assert proc.returncode == 0, stderr[-3000:]
+    return json.loads(stdout.strip().splitlines()[-1])
 
 
 # float32: sharding changes the per-device batch (6 -> 3), so XLA may reorder float32 sums;
@@ -37,7 +43,14 @@ SHARD_RTOL = 3e-6
 
 
 def test_two_devices_match_one():
-    one, two = _run(1), _run(2)
+    # both processes at once: each is mostly one thread compiling, so on 2 cores they take little more
+    # than one (34 s one after the other on the project's 2-core machine)
+    procs = [_start(1), _start(2)]
+    try:
+        one, two = (_result(p) for p in procs)
+    finally:
+        for p in procs:
+            p.kill()  # a no-op on one that has exited
     assert one["devices"] == 1 and two["devices"] == 2
     assert two["chunk"] % 2 == 0
     assert len(two["sum"]) == len(one["sum"]) == 6

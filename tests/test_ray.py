@@ -120,6 +120,14 @@ def _reference(tmp_path, path, chunk_size):
     return batchveh.load(out)
 
 
+@pytest.fixture(scope="module")
+def big_reference(tmp_path_factory):
+    """BIG swept in this process in chunks of 8, the exact reference of the four tests that sweep it on Ray:
+    run once for the module (7 s on 2 cores)."""
+    tmp = tmp_path_factory.mktemp("big")
+    return _reference(tmp, _spec(tmp, **BIG), chunk_size=8)
+
+
 def _parts(out):
     return sorted(p.name for p in out.glob("part-*.parquet"))
 
@@ -143,9 +151,9 @@ def test_ray_sweep_equals_the_in_process_one(tmp_path, local_ray):
     assert batchveh.units(uri)["drive_lf_rms"] == "N m" and batchveh.metadata(uri)["device"].startswith("1 CPU")
 
 
-def test_worker_killed_mid_sweep_finishes_equal(tmp_path, local_ray):
+def test_worker_killed_mid_sweep_finishes_equal(tmp_path, local_ray, big_reference):
     path = _spec(tmp_path, **BIG)
-    expect = _reference(tmp_path, path, chunk_size=8)
+    expect = big_reference
     out, ex, notes, killed = tmp_path / "killed", cluster.RayExecutor(), [], []
 
     def kill_one_worker():  # once the first part is written: the workers are busy with the next chunks
@@ -172,9 +180,9 @@ def test_worker_killed_mid_sweep_finishes_equal(tmp_path, local_ray):
     assert not list(out.glob(".*.tmp"))
 
 
-def test_driver_killed_then_resume_equals_uninterrupted(tmp_path, local_ray):
+def test_driver_killed_then_resume_equals_uninterrupted(tmp_path, local_ray, big_reference):
     path = _spec(tmp_path, **BIG)
-    expect = _reference(tmp_path, path, chunk_size=8)
+    expect = big_reference
     out = tmp_path / "driver"
     argv = [str(path), "--chunk-size", "8", "--out", str(out), "--quiet", "--executor", "ray"]
     # a driver of its own on this module's cluster, joined by its address as on a real one; its workers die with it
@@ -243,14 +251,14 @@ def test_bad_executor_or_address_is_one_line(tmp_path, capsys, monkeypatch, loca
     assert not (tmp_path / "r").exists()  # nothing was started or written
 
 
-def _shared_run(tmp_path, monkeypatch, name, kill=False):
+def _shared_run(tmp_path, monkeypatch, big_reference, name, kill=False):
     """BIG on this process and one Ray worker (a shared host, as on GPUs, here on the CPU). This process
     runs its first chunk, then waits until the worker has built its engine (and, with `kill`, until the
     worker has been killed), so that the worker surely runs chunks."""
     from batchveh.sweeping.chunks import ChunkRunner
 
     path = _spec(tmp_path, **BIG)
-    expect = _reference(tmp_path, path, chunk_size=8)
+    expect = big_reference
     out, ex, notes, killed = tmp_path / name, cluster.RayExecutor(workers=1, driver_works=True), [], []
     run, calls = ChunkRunner.run, []
 
@@ -288,15 +296,15 @@ def _shared_run(tmp_path, monkeypatch, name, kill=False):
     return ends, notes, killed
 
 
-def test_shared_host_equals_in_process(tmp_path, local_ray, monkeypatch):
-    ends, notes, _ = _shared_run(tmp_path, monkeypatch, "shared")
+def test_shared_host_equals_in_process(tmp_path, local_ray, monkeypatch, big_reference):
+    ends, notes, _ = _shared_run(tmp_path, monkeypatch, big_reference, "shared")
     where = Counter(e["where"] for e in ends)
     assert where["driver"] >= 1 and where["worker 0"] >= 1, where  # both ran chunks
     assert sorted(e["chunk"] for e in ends) == list(range(8)) and not notes, notes
 
 
-def test_shared_host_worker_killed(tmp_path, local_ray, monkeypatch):
-    ends, notes, killed = _shared_run(tmp_path, monkeypatch, "shared-killed", kill=True)
+def test_shared_host_worker_killed(tmp_path, local_ray, monkeypatch, big_reference):
+    ends, notes, killed = _shared_run(tmp_path, monkeypatch, big_reference, "shared-killed", kill=True)
     [pid] = killed
     assert any("its Ray worker died; it runs again" in n for n in notes), notes
     with pytest.raises(ProcessLookupError):
