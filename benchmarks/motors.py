@@ -15,7 +15,9 @@ Warp (float32) against MuJoCo C (float64), two result folders of benchmarks/moto
 their limits): per drive, over the variants, the relative difference |warp - C| / max(|C|, 1% of C's p99 of the
 column) of current RMS, winding temperature rise (peak less ambient), energy drawn, speed shortfall and the
 shares at the voltage line and the current limit; for the vehicle, bus energy and peak power; p50, p99, max
-and the share over 2%, and how often motor_status agrees. Writes benchmarks/results/LABEL-dcmotor-compare.json.
+and the share over 2%, and how often motor_status agrees; per drive also |warp - C| over the column's largest C
+value (the limit's scale: a low-load wheel's small current is not compared with itself alone).
+Writes benchmarks/results/LABEL-dcmotor-compare.json.
 """
 
 import argparse
@@ -70,15 +72,22 @@ def compare(a: str, b: str, label: str, out: str | None) -> dict:
 
     result = {"machine": machine(), "when": time.strftime("%Y-%m-%d %H:%M:%S"), "warp": a, "c": b,
               "variants": len(c), "per_drive": {}, "vehicle": {}}  # fmt: skip
+    result["per_drive_of_largest"] = {}  # |warp - C| over the largest C value of the column (the limit's scale)
     for stat in PER_DRIVE:
         r = np.concatenate([rel(column(w, m, stat), column(c, m, stat)) for m in DRIVES])
         result["per_drive"][stat] = summary(r)
+        a = np.concatenate([np.abs(column(w, m, stat) - column(c, m, stat)) for m in DRIVES])
+        result["per_drive_of_largest"][stat] = summary(
+            a / max(np.abs(np.concatenate([column(c, m, stat) for m in DRIVES])).max(), 1e-300)
+        )
     for col in ("bus_energy_wh", "bus_power_peak"):
         result["vehicle"][col] = summary(rel(w[col].to_numpy(), c[col].to_numpy()))
     result["motor_status_agree"] = float((w["motor_status"] == c["motor_status"]).mean())
     result["motor_status_c"] = c["motor_status"].value_counts().to_dict()
     for k, v in {**result["per_drive"], **result["vehicle"]}.items():
         print(f"{k:20s} p50 {v['p50']:.2e}  p99 {v['p99']:.2e}  max {v['max']:.2e}  over 2% {v['share_over_2pct']:.4f}")
+    for k, v in result["per_drive_of_largest"].items():
+        print(f"{k:20s} of the largest C value: p99 {v['p99']:.2e}  max {v['max']:.2e}")
     print(f"motor_status agrees on {result['motor_status_agree']:.2%} of {len(c):,} variants")
     path = Path(out or ROOT / "benchmarks" / "results" / f"{label}-dcmotor-compare.json")
     path.write_text(json.dumps(result, indent=1, default=str))
