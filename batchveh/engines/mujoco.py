@@ -177,7 +177,10 @@ class MujocoEngine:
         body_mass = np.broadcast_to(batch.fields.get("body_mass", m.body_mass), (batch.n, m.nbody))
         spec = mujoco.mjtState.mjSTATE_CTRL | (mujoco.mjtState.mjSTATE_XFRC_APPLIED if self._forces else 0)
         theta = np.zeros((batch.n, 4))  # model dcmotor: the drive angle setpoints (motors.dc_controls)
-        ratios = m.actuator_gear[lay.motor_act, 0]
+        # each variant's gear ratios (n, 1, 8): swept dcmotors carry their own
+        gear = batch.fields.get("actuator_gear", np.broadcast_to(m.actuator_gear, (batch.n, *m.actuator_gear.shape)))
+        ratios = np.asarray(gear)[:, None, lay.motor_act, 0] if lay.dcmotor else None
+        consts = motor_stats.constants_of(self.cfg.motors, batch.params) if self.cfg.motors is not None else None
 
         def controls(k):
             # float64, as MuJoCo C steps (the x64 scope is per thread: this worker's own)
@@ -209,6 +212,7 @@ class MujocoEngine:
                     part["actuator_velocity"][..., ids],
                     part.get("act"),
                     self.cfg.motors,
+                    consts={k: np.broadcast_to(v, (batch.n, 8))[tile] for k, v in consts.items()},
                 )
             sample = stats.sample(
                 part["qpos"],

@@ -41,6 +41,7 @@ tests) or `input="pos vel"` with the on-board PD controller and the bus voltage 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -239,6 +240,43 @@ def load_catalogue(path: str | Path) -> dict[str, DCMotor]:
     return out
 
 
+# A motor's fields a sweep may set (`motors.drive.<field>`, `motors.steer.<field>`): unit and rule
+SWEEPABLE = {
+    "nominal_voltage": ("V", "gt"),
+    "terminal_resistance": ("Ohm", "gt"),
+    "torque_constant": ("N m/A", "gt"),
+    "rotor_inertia": ("kg m^2", "ge"),
+    "max_continuous_current": ("A", "gt"),
+    "thermal_resistance_winding_housing": ("K/W", "ge"),
+    "thermal_resistance_housing_ambient": ("K/W", "ge"),
+    "thermal_time_constant_winding": ("s", "gt"),
+    "max_winding_temperature": ("deg C", "gt"),
+    "ambient_temperature": ("deg C", "ge"),
+    "gear_ratio": ("1", "gt"),
+    "gear_efficiency": ("1", "gt"),
+    "bus_voltage": ("V", "gt"),
+}
+
+
+def with_fields(motor: DCMotor, values: Any) -> DCMotor:
+    """`motor` with `values` ((field, value) pairs of SWEEPABLE) set. Setting torque_constant or
+    terminal_resistance drops the stall torque and no-load speed (the nominal triple they would
+    contradict); a thermal time constant replaces a given capacitance."""
+    changes = dict(values)
+    if not changes:
+        return motor
+    if "torque_constant" in changes or "terminal_resistance" in changes:
+        k = changes.get("torque_constant", motor.resolved()["K"])
+        r = changes.get("terminal_resistance", motor.resolved()["R"])
+        changes.update(torque_constant=k, terminal_resistance=r, stall_torque=None, no_load_speed=None)
+    if "nominal_voltage" in changes and motor.stall_torque is not None and "torque_constant" not in changes:
+        c = motor.resolved()  # keep K and R: the triple's voltage alone moves the bus default
+        changes.update(torque_constant=c["K"], terminal_resistance=c["R"], stall_torque=None, no_load_speed=None)
+    if "thermal_time_constant_winding" in changes:
+        changes["thermal_capacitance"] = None
+    return dataclasses.replace(motor, **changes)
+
+
 def pick(catalogue: dict[str, DCMotor], name: str, where: str) -> DCMotor:
     """The catalogue's motor `name`, or one ConfigError line with did-you-mean."""
     if name not in catalogue:
@@ -255,10 +293,11 @@ def dc_controls(servo_ctrl, theta, ratios, dt, xp):
     servo's integrator input) and steering rates, at the wheel. theta (..., 4): the drives' angle
     setpoints at this step, the integral of their speeds, as the servo's integrator actuator holds it
     (theta + dt omega after each step, MuJoCo's update of an integrator's act). ratios (8,): each motor's
-    gear ratio N, MOTORS order. Each motor's ctrl is (N x angle, N x speed): the setpoints at the motor."""
+    gear ratio N, MOTORS order (or (..., 8), each variant's, broadcast against the controls). Each motor's ctrl
+    is (N x angle, N x speed): the setpoints at the motor."""
     omega, alpha, dalpha = servo_ctrl[..., 0:4], servo_ctrl[..., 4:8], servo_ctrl[..., 12:16]
-    pos = xp.concatenate([ratios[:4] * theta, ratios[4:] * alpha], axis=-1)
-    vel = xp.concatenate([ratios[:4] * omega, ratios[4:] * dalpha], axis=-1)
+    pos = xp.concatenate([ratios[..., :4] * theta, ratios[..., 4:] * alpha], axis=-1)
+    vel = xp.concatenate([ratios[..., :4] * omega, ratios[..., 4:] * dalpha], axis=-1)
     ctrl = xp.stack([pos, vel], axis=-1).reshape(*pos.shape[:-1], 16)
     return ctrl, theta + omega * dt
 

@@ -25,6 +25,7 @@ from collections.abc import Mapping
 from typing import Any, Literal
 
 from batchveh.model import course
+from batchveh.model.motors import SWEEPABLE
 from batchveh.model.scenarios import Scenario, numeric_fields
 from batchveh.model.vehicle import Vehicle, numeric_paths, replace_path
 
@@ -43,12 +44,35 @@ MODEL = ("slope_deg", "gravity", "friction", *GAINS)
 START_RISE = ("motors.drive_start_rise", "motors.steer_start_rise")
 
 
+GROUPS = ("drive", "steer")
+
+
+def motor_names(vehicle: Vehicle) -> dict[str, dict[str, Any]]:
+    """The dcmotors' parameters (model dcmotor; none for the servo): `motors.drive` and `motors.steer`,
+    categorical (a catalogue name: `choices`; the flat value is its index there), and `motors.drive.<field>`,
+    `motors.steer.<field>` for every field of motors.SWEEPABLE. All act as structure, one compile per distinct
+    combination of their values (batch._structural_fields): a sweep gives them as lists (grid or zip)."""
+    if vehicle.motors.model != "dcmotor":
+        return {}
+    out: dict[str, dict[str, Any]] = {}
+    names = vehicle.motors.catalogue_names()
+    for group in GROUPS:
+        out[f"motors.{group}"] = {"unit": "", "doc": f"the {group} motors' catalogue entry", "choices": names,
+                                  "acts": "structure", "motor": True}  # fmt: skip
+        for key, (unit, rule) in SWEEPABLE.items():
+            meta = {"unit": unit, "doc": f"the {group} motors' {key.replace('_', ' ')}", rule: 0.0}
+            if key == "gear_efficiency":
+                meta["le"] = 1.0
+            out[f"motors.{group}.{key}"] = {**meta, "acts": "structure", "motor": True}
+    return out
+
+
 def parameter_specs(vehicle: Vehicle | None = None) -> dict[str, dict[str, Any]]:
     """Every sweepable parameter name with its unit, bounds and `acts`."""
+    vehicle = vehicle or Vehicle()
     out = {k: {**meta, "acts": _acts(k, scenario=True)} for k, meta in numeric_fields().items()}
-    out.update(
-        {k: {**meta, "acts": _acts(k, scenario=False)} for k, meta in numeric_paths(vehicle or Vehicle()).items()}
-    )
+    out.update({k: {**meta, "acts": _acts(k, scenario=False)} for k, meta in numeric_paths(vehicle).items()})
+    out.update(motor_names(vehicle))
     return out
 
 
@@ -80,6 +104,13 @@ def base_params(vehicle: Vehicle, scenario: Scenario) -> dict[str, float]:
         for part in path.split("."):
             obj = getattr(obj, part)
         out[path] = float(obj)
+    if vehicle.motors.model == "dcmotor":  # each dcmotor parameter's own value (NaN: the sheet gives none)
+        names = vehicle.motors.catalogue_names()
+        for group, motor in zip(GROUPS, vehicle.motors.dcmotors(), strict=True):
+            out[f"motors.{group}"] = float(names.index(getattr(vehicle.motors, group)))
+            for key in SWEEPABLE:
+                value = getattr(motor, key)
+                out[f"motors.{group}.{key}"] = float("nan") if value is None else float(value)
     return out
 
 
@@ -91,4 +122,22 @@ def variant_setup(vehicle: Vehicle, scenario: Scenario, values: Mapping[str, Any
     for k, v in values.items():
         if k in paths:
             vehicle = replace_path(vehicle, k, float(v))
+    motors = {k: v for k, v in values.items() if k.startswith(("motors.drive", "motors.steer")) and k not in paths}
+    if motors and vehicle.motors.model == "dcmotor":
+        vehicle = dataclasses.replace(vehicle, motors=_motors_with(vehicle.motors, motors))
     return vehicle, scenario
+
+
+def _motors_with(mo: Any, values: Mapping[str, Any]) -> Any:
+    """vehicle.motors with dcmotor parameters applied: a catalogue name (or its index) for motors.drive /
+    motors.steer, a field's value for motors.drive.<field>, motors.steer.<field>."""
+    names = mo.catalogue_names()
+    changes: dict[str, Any] = {}
+    for group in GROUPS:
+        if f"motors.{group}" in values:
+            v = values[f"motors.{group}"]
+            changes[group] = v if isinstance(v, str) else names[int(round(float(v)))]
+        fields = tuple((k.rsplit(".", 1)[1], float(v)) for k, v in values.items() if k.startswith(f"motors.{group}."))
+        if fields:
+            changes[f"{group}_set"] = tuple(dict((*getattr(mo, f"{group}_set"), *fields)).items())
+    return dataclasses.replace(mo, **changes)

@@ -31,7 +31,7 @@ import mujoco
 import numpy as np
 
 from batchveh.config import ConfigError, field, from_mapping, load_yaml
-from batchveh.model.motors import DCMotor, dcmotor_xml, load_catalogue, pick, reflected_inertia
+from batchveh.model.motors import DCMotor, dcmotor_xml, load_catalogue, pick, reflected_inertia, with_fields
 from batchveh.model.soil import Soil
 from batchveh.model.tyres import Tyre
 
@@ -134,6 +134,9 @@ class Motors:
     catalogue: str = ""  # the DC motor catalogue's path (YAML, model/motors.py's load_catalogue)
     drive: str = ""  # the drive motors' catalogue name
     steer: str = ""  # the steering motors' catalogue name
+    # fields set over the catalogue's values, ((field, value), ...): the sweep's motors.drive.<field>
+    drive_set: tuple[tuple[str, float], ...] = ()
+    steer_set: tuple[tuple[str, float], ...] = ()
 
     def validate(self, where: str = "motors") -> None:
         """With model dcmotor: the catalogue loads and names both motors (one ConfigError line)."""
@@ -145,7 +148,14 @@ class Motors:
         if not self.catalogue:
             raise ConfigError(f"{where}.catalogue: missing; allowed: the path of a motor catalogue (model: dcmotor)")
         catalogue = _catalogue(self.catalogue, where)
-        return pick(catalogue, self.drive, f"{where}.drive"), pick(catalogue, self.steer, f"{where}.steer")
+        drive = with_fields(pick(catalogue, self.drive, f"{where}.drive"), self.drive_set)
+        steer = with_fields(pick(catalogue, self.steer, f"{where}.steer"), self.steer_set)
+        drive.resolved(f"{where}.drive"), steer.resolved(f"{where}.steer")
+        return drive, steer
+
+    def catalogue_names(self, where: str = "motors") -> list[str]:
+        """The catalogue's motor names, in its order (model dcmotor)."""
+        return list(_catalogue(self.catalogue, where)) if self.catalogue else []
 
 
 @functools.lru_cache(maxsize=8)

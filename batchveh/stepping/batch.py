@@ -34,7 +34,15 @@ import numpy as np
 
 from batchveh.config import ConfigError, did_you_mean
 from batchveh.model import course
-from batchveh.model.params import GAINS, STATIC, base_params, parameter_specs, structural, variant_setup
+from batchveh.model.params import (
+    GAINS,
+    STATIC,
+    base_params,
+    motor_names,
+    parameter_specs,
+    structural,
+    variant_setup,
+)
 from batchveh.model.scenarios import Scenario, gravity_vector
 from batchveh.model.soil import check_ground
 from batchveh.model.vehicle import Vehicle, build_model, layout, rolling_resistance_torque
@@ -65,11 +73,14 @@ def model_for(vehicle: Vehicle, scenario: Scenario) -> mujoco.MjModel:
 DC_KP, DC_KD = 4, 6  # a dcmotor's controller gains in actuator_gainprm (MuJoCo 3.17: R, K, alpha, T0, kp, ki, kd, Vmax)
 
 
-def _gains(m: mujoco.MjModel, p: Mapping[str, Any], towing) -> tuple[np.ndarray, np.ndarray]:
-    """actuator_gainprm, biasprm (n, nu, 10) for gains in p (arrays of shape (n,) or scalars)."""
+def _gains(m: mujoco.MjModel, p: Mapping[str, Any], towing, gain0=None, gear=None) -> tuple[np.ndarray, np.ndarray]:
+    """actuator_gainprm, biasprm (n, nu, 10) for gains in p (arrays of shape (n,) or scalars), over each
+    variant's own gainprm and gear where given ((n, nu, 10), (n, nu, 6): swept dcmotors)."""
     lay = layout(m)
     n = np.broadcast(*[np.asarray(p[k]) for k in GAINS]).shape
-    gain = np.broadcast_to(m.actuator_gainprm, (*n, *m.actuator_gainprm.shape)).copy()
+    base = m.actuator_gainprm if gain0 is None else gain0
+    gain = np.broadcast_to(base, (*n, *m.actuator_gainprm.shape)).copy()
+    ratio = m.actuator_gear[:, 0] if gear is None else gear[..., 0]
     bias = np.broadcast_to(m.actuator_biasprm, (*n, *m.actuator_biasprm.shape)).copy()
     free = np.array([0.0 if tow else 1.0 for tow in towing])
     if lay.dcmotor:  # the on-board controller's kp and kd, in torque space at the motor: the wheel's / N^2
@@ -80,7 +91,7 @@ def _gains(m: mujoco.MjModel, p: Mapping[str, Any], towing) -> tuple[np.ndarray,
             (steer, "motors.steer_kp", DC_KP, 1.0),
             (steer, "motors.steer_kv", DC_KD, 1.0),
         ):
-            gain[..., ids, col] = np.asarray(p[key], float)[..., None] * scale / m.actuator_gear[ids, 0] ** 2
+            gain[..., ids, col] = np.asarray(p[key], float)[..., None] * scale / ratio[..., ids] ** 2
         return gain, bias
     for ids, key, col, scale in (
         (lay.drive_vel_act, "motors.drive_kv", 2, free),
@@ -199,7 +210,11 @@ def make_batch(
         fr[:, course.ground_geoms(model), 0] = params["friction"][:, None]
         fields["geom_friction"] = fr
     if any(k in swept for k in GAINS):
-        fields["actuator_gainprm"], fields["actuator_biasprm"] = _gains(model, params, scenario.towing)
+        fields["actuator_gainprm"], fields["actuator_biasprm"] = _gains(
+            model, params, scenario.towing, fields.get("actuator_gainprm"), fields.get("actuator_gear")
+        )
+    if vehicle.motors.model == "dcmotor":  # each variant's motor constants, for the electrical statistics
+        params.update(motor_constants(vehicle, scenario, params, [k for k in swept if k in motor_names(vehicle)], n))
     # the rigid contact's rolling resistance is the drive joints' friction loss; the slip tyre's its own
     rolls = "wheel.rolling_resistance" in swept or vehicle.wheel.rolling_resistance > 0
     if vehicle.tyre.model == "rigid" and rolls and any(k in swept for k in ROLLING_INPUTS):
@@ -243,9 +258,11 @@ def _rolling(model: mujoco.MjModel, p: Mapping[str, np.ndarray], n: int) -> np.n
 
 def _structural_fields(vehicle, scenario, model, params, names, fields) -> None:
     """The varying fields of structural parameters `names`, without a compile per variant (`fields`):
-    the compiler's part in closed form, mj_setConst's by MuJoCo on every thread; the ground's shape
-    compiled once per distinct combination of the names that shape it."""
-    varying = varying_fields(vehicle, scenario, names)
+    the compiler's part in closed form, mj_setConst's by MuJoCo on every thread; the ground's shape and
+    the dcmotors compiled once per distinct combination of the names that shape them."""
+    motors = [k for k in names if k in motor_names(vehicle)]
+    others = [k for k in names if k not in motors]
+    varying = set(varying_fields(vehicle, scenario, others)) if others else set(SAMEFRAME)
     structure.check_variants(params, names, vehicle)
     n = len(params[names[0]])
     inputs = structure.vehicle_inputs(model, params, n)
@@ -254,6 +271,11 @@ def _structural_fields(vehicle, scenario, model, params, names, fields) -> None:
     if shaping:
         index, models = _compiled_models(vehicle, scenario, params, shaping)
         extra = structure.course_inputs(model, index, models, inputs)
+    if motors:  # one compile per distinct motor: its actuators' rows and rotors' armature, mj_setConst the rest
+        index, models = _compiled_models(vehicle, scenario, params, motors)
+        structure.motor_inputs(model, index, models, inputs)
+        varying |= _differing(model, models)
+    varying = sorted(varying)
     for name in SAMEFRAME:
         getattr(model, name)[:] = 0  # fast-path flags: off for everyone
     given = {**inputs, **extra}
@@ -262,6 +284,41 @@ def _structural_fields(vehicle, scenario, model, params, names, fields) -> None:
     for name in varying:
         if name not in SAMEFRAME:
             fields[name] = given[name] if name in given else derived[name]
+
+
+def _differing(model: mujoco.MjModel, models: Sequence[mujoco.MjModel]) -> set[str]:
+    """The numeric fields in which some of `models` differs from `model` (one ConfigError line where a size
+    differs: those cannot vary inside one compiled program)."""
+    base = _numeric_fields(model)
+    found = set()
+    for mm in models:
+        for name, values in _numeric_fields(mm).items():
+            if values.shape != base[name].shape:
+                raise ConfigError(
+                    f"the swept motors change the size of {name} (a thermal model or current limit on some "
+                    "and not others); allowed: motors that all give both, or one sweep per motor"
+                )
+            if name not in SAMEFRAME and not np.array_equal(values, base[name]):
+                found.add(name)
+    return found
+
+
+def motor_constants(vehicle: Vehicle, scenario: Scenario, params: Mapping[str, np.ndarray], names, n: int) -> dict:
+    """Each variant's dcmotor constants for the statistics (MotorStatsConfig.constants, MOTORS order), as
+    params `_dc.<name>`, (n, 8) each: the vehicle's motors, or where motor parameters `names` vary, each
+    distinct combination's (a catalogue read per combination, not per variant)."""
+    from batchveh.stepping.motor_stats import MotorStatsConfig
+
+    if names:
+        combos, index = np.unique(np.stack([params[k] for k in names], axis=1), axis=0, return_inverse=True)
+        index = index.ravel()
+    else:
+        combos, index = np.zeros((1, 0)), np.zeros(n, int)
+    rows = []
+    for row in combos:
+        v, _ = variant_setup(vehicle, scenario, dict(zip(names, row.tolist(), strict=True)))
+        rows.append(MotorStatsConfig.for_vehicle(v).constants())
+    return {f"_dc.{k}": np.stack([r[k] for r in rows])[index] for k in rows[0]}
 
 
 def _compiled_models(vehicle, scenario, params, names) -> tuple[np.ndarray, list[mujoco.MjModel]]:

@@ -63,6 +63,8 @@ INPUTS = (
 COURSE_INPUTS = ("geom_pos", "geom_size", "geom_quat", "geom_rbound", "geom_aabb")
 COURSE_BODY_INPUTS = ("body_mass", "body_inertia", "body_ipos", "body_iquat")
 TILE = 4096  # simulations per set_const call: one Batch of this size is reused tile after tile
+# the dcmotors' fields a motor compile gives (motor_inputs): the actuators' and their joints' armature (J N^2)
+MOTOR_ACTUATOR_INPUTS = ("actuator_gear", "actuator_gainprm", "actuator_dynprm", "actuator_forcerange")
 
 
 def course_names(names: Sequence[str], obstacle: str) -> list[str]:
@@ -266,6 +268,21 @@ def course_inputs(
     if m.nhfielddata:
         extra["hfield_data"] = np.stack([mm.hfield_data for mm in models])[index]
     return extra
+
+
+def motor_inputs(
+    m: mujoco.MjModel, index: np.ndarray, models: Sequence[mujoco.MjModel], inputs: dict[str, np.ndarray]
+) -> None:
+    """Copy the dcmotors' rows of each variant's motor compile, `models[index[i]]`, into `inputs`: their
+    actuators' gear, gain, dynamics and force range, and their joints' armature (the rotors' J N^2)."""
+    from batchveh.model.vehicle import layout
+
+    lay = layout(m)
+    for key, rows in ((k, lay.motor_act) for k in MOTOR_ACTUATOR_INPUTS):
+        if key not in inputs:
+            inputs[key] = np.broadcast_to(getattr(m, key), (len(index), *getattr(m, key).shape)).copy()
+        inputs[key][:, rows] = np.stack([getattr(mm, key)[rows] for mm in models])[index]
+    inputs["dof_armature"][:, lay.motor_dof] = np.stack([mm.dof_armature[lay.motor_dof] for mm in models])[index]
 
 
 def _threads() -> int:

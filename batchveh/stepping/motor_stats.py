@@ -80,6 +80,10 @@ class MotorStatsConfig:
     R_T: tuple[float, ...] = (0.0,) * 8  # K/W, the winding's one-node thermal resistance (0: no thermal model)
     C: tuple[float, ...] = (0.0,) * 8  # J/K, its capacitance  # each motor's thermal state in MjData.act (-1: none)
 
+    def constants(self) -> dict[str, np.ndarray]:
+        """CONSTANTS, (8,) each."""
+        return {k: np.asarray(getattr(self, k), float) for k in CONSTANTS}
+
     @staticmethod
     def for_vehicle(vehicle: Any) -> MotorStatsConfig | None:
         """The constants of the vehicle's dcmotors as `motors.dcmotor_xml` builds them (None for the
@@ -104,6 +108,19 @@ class MotorStatsConfig:
         )
 
 
+CONSTANTS = ("K", "R", "eta", "V", "force_max", "T_amb", "R_T", "C")  # per motor, MotorStatsConfig's numbers
+
+
+def constants_of(cfg: MotorStatsConfig, params: Any = None, xp=np, dtype=None) -> dict[str, Any]:
+    """The motors' numbers, (..., 8) each: each variant's from `params` (`_dc.<name>`, batch.motor_constants)
+    where it has them, else the config's."""
+    out = {}
+    for k in CONSTANTS:
+        value = params.get(f"_dc.{k}") if params is not None else None
+        out[k] = xp.asarray(getattr(cfg, k) if value is None else value, dtype)
+    return out
+
+
 def start_act(params: Any, index: np.ndarray, na: int, xp=np, dtype=None) -> Any:
     """MjData.act at t = 0 (..., na): each thermal state at its motor's start rise (params
     `motors.drive_start_rise`, `motors.steer_start_rise`, per variant), the rest 0."""
@@ -122,12 +139,15 @@ def _set(act: np.ndarray, k: int, value: Any) -> np.ndarray:
     return act
 
 
-def sample(force, velocity, act, cfg: MotorStatsConfig, xp=np) -> dict[str, Any]:
+def sample(force, velocity, act, cfg: MotorStatsConfig, xp=np, consts=None) -> dict[str, Any]:
     """Per step (..., B, 8): the real current, the winding temperature, the voltage, the power and the
     limit flags, from the motors' actuator force and velocity (..., B, 8) and MjData.act (..., B, na;
-    None where no motor has a thermal state)."""
-    K, R, eta, V = (xp.asarray(x, force.dtype) for x in (cfg.K, cfg.R, cfg.eta, cfg.V))
-    fmax, t_amb = xp.asarray(cfg.force_max, force.dtype), xp.asarray(cfg.T_amb, force.dtype)
+    None where no motor has a thermal state). consts: `constants_of`'s (each variant's numbers, (..., 8),
+    broadcast over B); default the config's."""
+    c = constants_of(cfg, xp=xp, dtype=force.dtype) if consts is None else consts
+    c = {k: xp.asarray(v, force.dtype)[..., None, :] for k, v in c.items()}  # over the steps' axis
+    K, R, eta, V = (c[k] for k in ("K", "R", "eta", "V"))
+    fmax, t_amb = c["force_max"], c["T_amb"]
     if any(cfg.thermal) and act is not None:
         idx = np.maximum(np.asarray(cfg.act), 0)
         rise = xp.where(xp.asarray(cfg.thermal), act[..., idx], 0.0)
@@ -144,6 +164,7 @@ def sample(force, velocity, act, cfg: MotorStatsConfig, xp=np) -> dict[str, Any]
         "power": volt * current,
         "at_v": xp.abs(volt) >= V * (1 - AT_LIMIT_RTOL),
         "at_i": (fmax > 0) & (xp.abs(force) >= fmax * (1 - AT_LIMIT_RTOL)),
+        "consts": c,  # the motors' numbers, (..., 1, 8): update integrates the windings with them
     }
 
 
@@ -169,15 +190,16 @@ def init(batch: tuple[int, ...], xp=np, dtype=None) -> dict[str, Any]:
     }
 
 
-def winding(temp, current, cfg: MotorStatsConfig, dt: float, xp=np):
+def winding(temp, current, cfg: MotorStatsConfig, dt: float, xp=np, consts=None):
     """The windings' temperature after one step of `dt` from `temp` (..., 8) with the motors' real current
     (..., 8): C dT/dt = i^2 R (1 + alpha (T - 25)) - (T - T_amb) / R_T, explicit Euler (dt / tau < 3e-4 for
     the catalogue's windings at 5 ms). MuJoCo 3.17's own thermal state heats with the current before the
     current limit clips it (model/motors.py); this one heats with the current the motor delivered."""
-    r_t, cap = xp.asarray(cfg.R_T, current.dtype), xp.asarray(cfg.C, current.dtype)
+    c = constants_of(cfg, xp=xp, dtype=current.dtype) if consts is None else consts
+    r_t, cap = xp.asarray(c["R_T"], current.dtype), xp.asarray(c["C"], current.dtype)
     thermal = xp.asarray(cfg.thermal)
-    r0 = xp.asarray(cfg.R, current.dtype) * xp.asarray(cfg.eta, current.dtype)  # the real winding's R at 25 C
-    t_amb = xp.asarray(cfg.T_amb, current.dtype)
+    r0 = xp.asarray(c["R"], current.dtype) * xp.asarray(c["eta"], current.dtype)  # the real winding's R at 25 C
+    t_amb = xp.asarray(c["T_amb"], current.dtype)
     heat = current * current * r0 * (1 + COPPER_TEMPCOEF * (temp - REFERENCE_TEMP))
     cool = (temp - t_amb) / xp.where(thermal, r_t, 1.0)
     return xp.where(thermal, temp + dt * (heat - cool) / xp.where(thermal, cap, 1.0), t_amb)
@@ -195,9 +217,10 @@ def update(c: dict[str, Any], e: dict[str, Any], w, wr, dt: float, cfg: MotorSta
     out["n_run"] = c["n_run"] + wr.sum()
     out["i_sumsq"] = c["i_sumsq"] + (wk * cur * cur).sum(-2)
     out["i_peak"] = xp.maximum(c["i_peak"], xp.where(run[:, None], xp.abs(cur), 0.0).max(-2))
+    consts = {k: v[..., 0, :] for k, v in e["consts"].items()}
     temp, peak = xp.where(xp.isnan(c["T"]), e["temp"][..., 0, :], c["T"]), c["t_peak"]
     for k in range(cur.shape[-2]):  # one step on the warp engine's scan; MuJoCo C's block, in turn
-        temp = winding(temp, cur[..., k, :], cfg, dt, xp)
+        temp = winding(temp, cur[..., k, :], cfg, dt, xp, consts)
         peak = xp.maximum(peak, xp.where(run[k], temp, -np.inf))
     out["T"], out["t_peak"], out["t_end"] = temp, peak, temp
     out["drawn"] = c["drawn"] + (wrk * xp.maximum(power, 0.0)).sum(-2) * dt

@@ -57,6 +57,7 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
     damping = servo_damping(params, scenario.towing, xp=jnp, dcmotor=lay.dcmotor)
 
     ratios = jnp.asarray(model.actuator_gear[lay.motor_act, 0]) if lay.dcmotor else None
+    consts = motor_stats.constants_of(motors, params, jnp) if motors is not None else None
 
     def body(carry, i):
         (d, ts, theta), acc = carry
@@ -79,8 +80,8 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
         if motors is not None:  # the dcmotors' electrical sample (motor_stats), a block of one step
             force, speed = take(d.actuator_force, lay.motor_act), take(d.actuator_velocity, lay.motor_act)
             act = d.act[None] if d.act.shape[-1] else None
-            electric = motor_stats.sample(force[None], speed[None], act, motors, jnp)
-            electric = {k: v[0] for k, v in electric.items()}
+            electric = motor_stats.sample(force[None], speed[None], act, motors, jnp, consts)
+            electric = jax.tree_util.tree_map(lambda v: v[0], electric)
         s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, params["wheel.radius"], lay, damping, dv, electric)
         (d, acc), out = body_out(d, acc, s, i)
         return ((d, ts, theta), acc), out

@@ -78,6 +78,7 @@ class ChunkRunner:
         self.table = spec.table()
         specs = parameter_specs(spec.vehicle)
         self.param_units = {k: specs[k].get("unit", "") for k in spec.params}
+        self.choices = {k: specs[k]["choices"] for k in spec.params if "choices" in specs[k]}
         engine_meta = {"implementation": self.engine.implementation, "solver": solver_settings(base, spec.solver)}
         self.manifest = {
             "spec": spec.raw,
@@ -136,6 +137,8 @@ class ChunkRunner:
         if "motor_status_code" in res:  # model dcmotor
             cols["motor_status"] = np.asarray(motor_stats.MOTOR_STATUS)[np.asarray(res["motor_status_code"], int)]
         frame = pd.concat([rows.reset_index(drop=True), pd.DataFrame(cols)], axis=1)
+        for k, names in self.choices.items():  # a categorical parameter's column holds its names
+            frame[k] = np.asarray(names, dtype=object)[np.rint(frame[k].to_numpy()).astype(int)]
         meta = {
             **self.meta,
             "chunk": c,

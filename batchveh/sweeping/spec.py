@@ -138,7 +138,8 @@ class SweepSpec:
 
     def variant(self, row: Any) -> tuple[Vehicle, Scenario]:
         """The vehicle and scenario of one variant (a row of the variant or result table)."""
-        return variant_setup(self.vehicle, self.scenario, {k: float(row[k]) for k in self.params})
+        values = {k: row[k] if isinstance(row[k], str) else float(row[k]) for k in self.params}  # names stay names
+        return variant_setup(self.vehicle, self.scenario, values)
 
 
 class VariantTable:
@@ -338,7 +339,18 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
             )
         return specs[key]
 
-    fixed = {k: check_number(v, param_meta(k, "fixed"), f"{where}: fixed.{k}") for k, v in (top.fixed or {}).items()}
+    def number(v: Any, meta: dict, at: str) -> float:
+        """A number in bounds, or a categorical parameter's name as its index."""
+        if "choices" not in meta:
+            return check_number(v, meta, at)
+        if not isinstance(v, str) or v not in meta["choices"]:
+            raise ConfigError(
+                f"{at}: {v!r} is not in the catalogue{did_you_mean(str(v), meta['choices'])}; "
+                f"allowed: {', '.join(meta['choices'])}"
+            )
+        return float(meta["choices"].index(v))
+
+    fixed = {k: number(v, param_meta(k, "fixed"), f"{where}: fixed.{k}") for k, v in (top.fixed or {}).items()}
     sw = top.sweep
     params: dict[str, Any] = {}
     for k, v in sw.params.items():
@@ -350,7 +362,16 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
                 f"{at}: {k} fixes the compiled program (array shapes, step count) and cannot be swept; "
                 "allowed: one value under fixed (run one sweep per value)"
             )
-        params[k] = _bounds(v, sw.method, at, meta) if sw.method in SAMPLED else _values(v, at, meta)
+        if meta.get("motor") and sw.method in SAMPLED:
+            raise ConfigError(
+                f"{at}: {k} is a motor parameter, compiled once per distinct value; allowed: a list of values "
+                "under sweep method grid or zip"
+            )
+        if "choices" in meta:
+            names = v if isinstance(v, list) and v else [v]
+            params[k] = np.array([number(x, meta, at) for x in names])
+        else:
+            params[k] = _bounds(v, sw.method, at, meta) if sw.method in SAMPLED else _values(v, at, meta)
     if sw.method in SAMPLED and sw.n is None:
         allowed = "a power of two >= 1, the base size N" if sw.method == "sobol" else "an integer >= 1"
         raise ConfigError(f"{where}: sweep.n: missing; allowed: {allowed} for {sw.method}")
