@@ -93,7 +93,7 @@ def simulate(
     t = time_step, the state after the first step of the laws; `window` is in law time too)."""
     cfg = stats.StatsConfig.for_scenario(scenario, window, slip_limit=stats.slip_limit(vehicle))
     batch = make_batch(vehicle, scenario, {})
-    params = {k: float(v[0]) for k, v in batch.params.items()}
+    params = {k: float(v[0]) if np.ndim(v) == 1 else np.asarray(v[0]) for k, v in batch.params.items()}  # _dc.*: (8,)
     n = scenario.n_steps
     if backend == "mujoco":
         from batchveh.stepping.rollout import mujoco_series

@@ -135,3 +135,50 @@ def test_a_battery_too_small_is_the_reason(tmp_path):
     _, table, detail = in_loop(spec, df, CATALOGUE, [BIG], steer=BIG, share=1.0, battery=tiny, hot=False)
     assert table["fails_energy"].iloc[0] == 2 and table["coverage"].iloc[0] == 0.0
     assert not detail[BIG][["fails_peak", "fails_voltage", "fails_speed", "fails_thermal"]].any().any()
+
+
+def test_a_mission_reports_the_motors_per_segment(tmp_path):
+    """A mission (accelerate, cruise, climb 6 deg, stop) on the small motor: each segment's energy drawn and
+    regenerated, current and bus energy add up to the mission's (the segments cover it: sums of squares for
+    the RMS), and the mission's winding peak is the largest segment's and equals the run's own column."""
+    raw = {
+        "name": "m",
+        "scenario": {
+            "kind": "mission",
+            "speed_kmh": 2.0,
+            "slope_deg": 6.0,
+            "segments": [
+                {"kind": "accelerate", "duration": 1.0},
+                {"kind": "cruise", "duration": 1.0},
+                {"kind": "climb", "duration": 2.0, "transition": 0.5},
+                {"kind": "stop", "duration": 1.0},
+            ],
+        },  # fmt: skip
+        "vehicle": {
+            "tyre": {"model": "rigid"},
+            "motors": {"model": "dcmotor", "catalogue": str(CATALOGUE), "drive": SMALL, "steer": BIG},
+        },
+        "sweep": {"method": "zip", "params": {"payload.mass": [0.0, 30.0]}},
+        "output": str(tmp_path / "out"),
+    }
+    spec = spec_from_mapping(raw, "test")
+    out = _run(spec, {"payload.mass": np.array([0.0, 30.0])})
+    segs = [
+        k[: -len("_drive_lf_energy_drawn")] for k in out if k.startswith("seg") and k.endswith("_drive_lf_energy_drawn")
+    ]
+    assert len(segs) == 4
+    cfg = spec.stats_config().mission
+    steps = dict(zip(cfg.spans, np.asarray(cfg.last) - np.asarray(cfg.first) + 1, strict=True))
+    for m in ("drive_lf", "drive_rr", "steer_lf"):
+        for stat in ("energy_drawn", "energy_regen"):
+            total = sum(out[f"{s}_{m}_{stat}"] for s in segs)
+            np.testing.assert_allclose(total, out[f"mission_{m}_{stat}"], rtol=1e-9, atol=1e-12)
+        sq = sum(out[f"{s}_{m}_current_rms"] ** 2 * steps[s] for s in segs)
+        np.testing.assert_allclose(sq, out[f"mission_{m}_current_rms"] ** 2 * steps["mission"], rtol=1e-9)
+        peak = np.max([out[f"{s}_{m}_winding_temp_peak"] for s in segs], axis=0)
+        np.testing.assert_allclose(peak, out[f"mission_{m}_winding_temp_peak"], rtol=1e-12)
+        np.testing.assert_allclose(out[f"mission_{m}_winding_temp_peak"], out[f"{m}_winding_temp_peak"], rtol=1e-12)
+    np.testing.assert_allclose(sum(out[f"{s}_bus_energy_wh"] for s in segs), out["mission_bus_energy_wh"], rtol=1e-9)
+    for s in segs:  # every segment moves or holds the vehicle: the drives draw, and take back less than they draw
+        assert (out[f"{s}_drive_lf_energy_drawn"] > 0).all()
+        assert (out[f"{s}_drive_lf_energy_regen"] < out[f"{s}_drive_lf_energy_drawn"]).all()

@@ -37,6 +37,13 @@ TORQUE_STATS = {
     "peak": ("N m", "peak |torque|"),
     "peak_lp": ("N m", "peak |low-pass filtered torque|"),
 }
+ELECTRIC_KEYS = ("i_sumsq", "t_peak", "drawn", "regen")  # the dcmotors' carry per span (model dcmotor)
+ELECTRIC_STATS = {
+    "current_rms": ("A", "RMS motor current (dcmotor)"),
+    "winding_temp_peak": ("deg C", "peak winding temperature (dcmotor, one-node model of the delivered current)"),
+    "energy_drawn": ("J", "electrical energy drawn from the bus (dcmotor)"),
+    "energy_regen": ("J", "electrical energy returned to the bus (dcmotor)"),
+}
 MOTOR_STATS = {
     "energy_drive": ("J", "energy the motor delivers while driving, integral of max(torque x speed, 0)"),
     "energy_regen": ("J", "energy the motor takes back while braking, integral of min(torque x speed, 0), <= 0"),
@@ -81,8 +88,8 @@ class MissionStatsConfig:
         }
 
 
-def init(cfg: MissionStatsConfig, batch: tuple[int, ...], xp=np, dtype=None) -> dict[str, Any]:
-    """Empty carry for `batch` leading dims."""
+def init(cfg: MissionStatsConfig, batch: tuple[int, ...], xp=np, dtype=None, motors: bool = False) -> dict[str, Any]:
+    """Empty carry for `batch` leading dims; with `motors`, the dcmotors' electrical statistics per span too."""
     n = len(cfg.spans)
 
     def z(*shape):
@@ -90,13 +97,19 @@ def init(cfg: MissionStatsConfig, batch: tuple[int, ...], xp=np, dtype=None) -> 
 
     keys9 = ("sumsq", "peak", "peak_lp")
     keys8 = ("energy_drive", "energy_regen", "above", "speed_peak")
-    return {**{k: z(len(CHANNELS)) for k in keys9}, **{k: z(len(MOTORS)) for k in keys8}, "distance": z()}
+    out = {**{k: z(len(CHANNELS)) for k in keys9}, **{k: z(len(MOTORS)) for k in keys8}, "distance": z()}
+    if motors:
+        out.update({k: z(len(MOTORS)) for k in ELECTRIC_KEYS} | {"bus_energy": z()})
+    return out
 
 
-def update(c: dict[str, Any], tau, abs_lp, s: dict[str, Any], i, cfg: MissionStatsConfig, xp=np) -> dict[str, Any]:
+def update(
+    c: dict[str, Any], tau, abs_lp, s: dict[str, Any], i, cfg: MissionStatsConfig, xp=np, temps=None
+) -> dict[str, Any]:
     """Fold a block of B steps (indices i (B,)) into carry `c`: tau and abs_lp (..., B, 9) N m (the
     motors and the four-wheel sum, as `stats.update` builds them), s the samples (`stats.sample`;
-    `rate` (..., B, 8) motor joint speeds rad/s, `vel` (..., B, 3) m/s)."""
+    `rate` (..., B, 8) motor joint speeds rad/s, `vel` (..., B, 3) m/s; with dcmotors `motors`, their
+    electrical sample, and `temps` (..., B, 8) their windings after each step)."""
     first, last = xp.asarray(cfg.first), xp.asarray(cfg.last)
     inside = (i[:, None] >= first[None, :]) & (i[:, None] <= last[None, :])  # (B, S)
     wt = xp.where(inside, 1.0, 0.0).T  # (S, B): sums over a span are products with it
@@ -113,7 +126,7 @@ def update(c: dict[str, Any], tau, abs_lp, s: dict[str, Any], i, cfg: MissionSta
     above = xp.where(xp.abs(s["tau"]) > xp.asarray(cfg.threshold), 1.0, 0.0)
     above = xp.where(xp.isfinite(s["tau"]), above, np.nan)  # unknown where the torque is
     speed = xp.sqrt(s["vel"][..., 0] ** 2 + s["vel"][..., 1] ** 2)
-    return {
+    out = {
         "sumsq": c["sumsq"] + total(tau * tau),
         "peak": peak(c["peak"], xp.abs(tau)),
         "peak_lp": peak(c["peak_lp"], abs_lp),
@@ -123,6 +136,15 @@ def update(c: dict[str, Any], tau, abs_lp, s: dict[str, Any], i, cfg: MissionSta
         "speed_peak": peak(c["speed_peak"], xp.abs(s["rate"])),
         "distance": c["distance"] + total(speed[..., None])[..., 0] * cfg.dt,
     }
+    if "i_sumsq" in c:  # the dcmotors: current, winding, energy per span
+        e = s["motors"]
+        cur, power = e["current"], e["power"]
+        out["i_sumsq"] = c["i_sumsq"] + total(cur * cur)
+        out["t_peak"] = peak(c["t_peak"], temps)
+        out["drawn"] = c["drawn"] + total(xp.maximum(power, 0.0)) * cfg.dt
+        out["regen"] = c["regen"] + total(xp.maximum(-power, 0.0)) * cfg.dt
+        out["bus_energy"] = c["bus_energy"] + total(power.sum(-1)[..., None])[..., 0] * cfg.dt
+    return out
 
 
 def finalize(c: dict[str, Any], cfg: MissionStatsConfig, xp=np) -> dict[str, Any]:
@@ -142,11 +164,20 @@ def finalize(c: dict[str, Any], cfg: MissionStatsConfig, xp=np) -> dict[str, Any
             if cfg.counted[j]:
                 cols[f"{span}_{motor}_time_above"] = c["above"][..., k, j]
         cols[f"{span}_distance"] = c["distance"][..., k]
+        if "i_sumsq" in c:
+            i_rms = xp.sqrt(c["i_sumsq"][..., k, :] / float(steps[k]))
+            for j, motor in enumerate(MOTORS):
+                cols[f"{span}_{motor}_current_rms"] = i_rms[..., j]
+                cols[f"{span}_{motor}_winding_temp_peak"] = c["t_peak"][..., k, j]
+                cols[f"{span}_{motor}_energy_drawn"] = c["drawn"][..., k, j]
+                cols[f"{span}_{motor}_energy_regen"] = c["regen"][..., k, j]
+            cols[f"{span}_bus_energy_wh"] = c["bus_energy"][..., k] / 3600.0
     return cols
 
 
 _COLUMN = re.compile(
-    rf"^(mission|seg\d+_[a-z0-9_]+?)_(?:({'|'.join(CHANNELS)})_({'|'.join((*TORQUE_STATS, *MOTOR_STATS))})|distance)$"
+    rf"^(mission|seg\d+_[a-z0-9_]+?)_(?:({'|'.join(CHANNELS)})_"
+    rf"({'|'.join((*TORQUE_STATS, *MOTOR_STATS, *ELECTRIC_STATS))})|distance|bus_energy_wh)$"
 )
 
 
@@ -158,6 +189,8 @@ def column_doc(name: str) -> tuple[str, str] | None:
     span, channel, stat = match.groups()
     where = "the whole mission" if span == "mission" else f"segment {span}"
     if channel is None:
+        if name.endswith("_bus_energy_wh"):
+            return "Wh", f"net electrical energy of the 8 dcmotors over {where}"
         return "m", f"path length of the chassis centre in the ground plane over {where}"
-    unit, doc = {**TORQUE_STATS, **MOTOR_STATS}[stat]
+    unit, doc = {**TORQUE_STATS, **MOTOR_STATS, **ELECTRIC_STATS}[stat]
     return unit, f"{channel}: {doc} over {where}"

@@ -205,10 +205,37 @@ def winding(temp, current, cfg: MotorStatsConfig, dt: float, xp=np, consts=None)
     return xp.where(thermal, temp + dt * (heat - cool) / xp.where(thermal, cap, 1.0), t_amb)
 
 
-def update(c: dict[str, Any], e: dict[str, Any], w, wr, dt: float, cfg: MotorStatsConfig, xp=np) -> dict[str, Any]:
+def windings(temp, current, cfg: MotorStatsConfig, dt: float, xp=np, consts=None):
+    """`winding` over a block of steps at once, (..., B, 8) after each step from `temp` (..., 8) with the
+    currents (..., B, 8). Each step is linear in T, T' = a T + b, so T after step k is A_k (T_0 + sum_{j<=k}
+    b_j / A_j) with A_k = a_0 ... a_k (a close to 1 - dt / tau: the products stay near 1 over a block)."""
+    c = constants_of(cfg, xp=xp, dtype=current.dtype) if consts is None else consts
+    thermal = xp.asarray(cfg.thermal)
+    r_t = xp.where(thermal, xp.asarray(c["R_T"], current.dtype), 1.0)[..., None, :]
+    cap = xp.where(thermal, xp.asarray(c["C"], current.dtype), 1.0)[..., None, :]
+    r0 = (xp.asarray(c["R"], current.dtype) * xp.asarray(c["eta"], current.dtype))[..., None, :]
+    t_amb = xp.asarray(c["T_amb"], current.dtype)
+    heat = current * current * r0  # W at 25 deg C
+    a = 1 + dt * (heat * COPPER_TEMPCOEF - 1 / r_t) / cap
+    b = dt * (heat * (1 - COPPER_TEMPCOEF * REFERENCE_TEMP) + t_amb[..., None, :] / r_t) / cap
+    prod = xp.cumprod(a, axis=-2)
+    temps = prod * (temp[..., None, :] + xp.cumsum(b / prod, axis=-2))
+    return xp.where(thermal[..., None, :], temps, t_amb[..., None, :])
+
+
+def block_windings(c: dict[str, Any], e: dict[str, Any], cfg: MotorStatsConfig, dt: float, xp=np):
+    """The windings' temperatures after each step of a block (..., B, 8) (`windings`), from the carry's, or at
+    the first block from MuJoCo's thermal state after the first step (its start rise, `start_act`)."""
+    consts = {k: v[..., 0, :] for k, v in e["consts"].items()}
+    start = xp.where(xp.isnan(c["T"]), e["temp"][..., 0, :], c["T"])
+    return windings(start, e["current"], cfg, dt, xp, consts)
+
+
+def update(
+    c: dict[str, Any], e: dict[str, Any], w, wr, dt: float, cfg: MotorStatsConfig, xp=np, temps=None
+) -> dict[str, Any]:
     """Fold a block's samples `e` (..., B, 8); w, wr (B,): 1.0 at steps inside the steady window, past
-    the settle. The winding temperatures are integrated here step by step (`winding`), from MuJoCo's
-    thermal state after the first step (its start rise, `start_act`)."""
+    the settle. temps: `block_windings` (computed here when not given)."""
     wk, wrk = w[:, None], wr[:, None]
     cur, power = e["current"], e["power"]
     run = wr > 0
@@ -217,12 +244,10 @@ def update(c: dict[str, Any], e: dict[str, Any], w, wr, dt: float, cfg: MotorSta
     out["n_run"] = c["n_run"] + wr.sum()
     out["i_sumsq"] = c["i_sumsq"] + (wk * cur * cur).sum(-2)
     out["i_peak"] = xp.maximum(c["i_peak"], xp.where(run[:, None], xp.abs(cur), 0.0).max(-2))
-    consts = {k: v[..., 0, :] for k, v in e["consts"].items()}
-    temp, peak = xp.where(xp.isnan(c["T"]), e["temp"][..., 0, :], c["T"]), c["t_peak"]
-    for k in range(cur.shape[-2]):  # one step on the warp engine's scan; MuJoCo C's block, in turn
-        temp = winding(temp, cur[..., k, :], cfg, dt, xp, consts)
-        peak = xp.maximum(peak, xp.where(run[k], temp, -np.inf))
-    out["T"], out["t_peak"], out["t_end"] = temp, peak, temp
+    temps = block_windings(c, e, cfg, dt, xp) if temps is None else temps
+    out["T"] = temps[..., -1, :]
+    out["t_peak"] = xp.maximum(c["t_peak"], xp.where(run[:, None], temps, -np.inf).max(-2))
+    out["t_end"] = out["T"]
     out["drawn"] = c["drawn"] + (wrk * xp.maximum(power, 0.0)).sum(-2) * dt
     out["regen"] = c["regen"] + (wrk * xp.maximum(-power, 0.0)).sum(-2) * dt
     out["n_v"] = c["n_v"] + (wrk * e["at_v"]).sum(-2)

@@ -261,7 +261,7 @@ def mujoco_series(
     """Per-step samples from MuJoCo C (float64), the reference for MJX."""
     lay = layout(m)
     radius = float(params["wheel.radius"])
-    damping = servo_damping({k: float(v) for k, v in params.items()}, scenario.towing, dcmotor=lay.dcmotor)
+    damping = servo_damping(params, scenario.towing, dcmotor=lay.dcmotor)
     rows, prev = [], None
     for d, ctrl in mujoco_steps(m, params, scenario=scenario, n_steps=n_steps):
         if ctrl is not None:

@@ -173,7 +173,9 @@ def init(cfg: StatsConfig, batch: tuple[int, ...], xp=np, dtype=None) -> dict[st
     def z(*shape, fill=0.0):
         return xp.full((*batch, *shape), fill, dtype=dtype)
 
-    mission = {} if cfg.mission is None else {"mission": mission_stats.init(cfg.mission, batch, xp, dtype)}
+    mission = {}
+    if cfg.mission is not None:
+        mission["mission"] = mission_stats.init(cfg.mission, batch, xp, dtype, motors=cfg.motors is not None)
     if cfg.motors is not None:
         mission["motors"] = motor_stats.init(batch, xp, dtype)
     return {
@@ -356,10 +358,12 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
     if span != "none":
         out["steer_err"] = _wmax(c["steer_err"], inw, xp.abs(s["alpha"] - s["ref"][..., 4:]), span, xp)
     out["pose"] = xp.stack([s["pos"][..., -1, 0], s["pos"][..., -1, 1], yaw[..., -1]], axis=-1)
-    if cfg.mission is not None:
-        out["mission"] = mission_stats.update(c["mission"], tau, abs_lp, s, i, cfg.mission, xp)
+    temps = None  # the dcmotors' windings after each step (motor_stats.block_windings)
     if cfg.motors is not None:
-        out["motors"] = motor_stats.update(c["motors"], s["motors"], w, wr, cfg.dt, cfg.motors, xp)
+        temps = motor_stats.block_windings(c["motors"], s["motors"], cfg.motors, cfg.dt, xp)
+        out["motors"] = motor_stats.update(c["motors"], s["motors"], w, wr, cfg.dt, cfg.motors, xp, temps)
+    if cfg.mission is not None:
+        out["mission"] = mission_stats.update(c["mission"], tau, abs_lp, s, i, cfg.mission, xp, temps)
     return out
 
 
