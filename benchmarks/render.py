@@ -250,6 +250,21 @@ ROWS = [
         "`python benchmarks/ray_gpus.py --two-gpus OUT --only 1m_local_1gpu,1m_ray_2gpu`",
     ),
     Row(
+        "Two GPUs through Ray: 100,000 x 10 s with --executor ray (below Ray's break-even it runs in-process) "
+        "against in-process, and 400,000 x 10 s with a Ray worker killed (SIGKILL) in its first chunk",
+        ["h200x2-ray-kill.json"],
+        lambda d: (
+            f"100,000: **{d['steps']['100k_ray']['process_s']:.1f} s** against "
+            f"{d['steps']['100k_local']['process_s']:.1f} s (one run each); killed worker: the sweep finished "
+            f"in {d['steps']['400k_ray_worker_killed']['process_s']:.1f} s, "
+            f"{d['steps']['400k_ray_worker_killed']['rows']:,} rows, "
+            f"{d['steps']['400k_ray_worker_killed']['part_files']} parts for "
+            f"{d['steps']['400k_ray_worker_killed']['manifest_parts']} chunks (each once)"
+        ),
+        "two H200s of one host, 32 cores",
+        "`python benchmarks/ray_gpus.py --two-gpus OUT --only 400k_ray_worker_killed,100k_ray,100k_local`",
+    ),
+    Row(
         "Ray with one worker on one GPU against the in-process sweep, warp, 131,072 variants",
         ["h200-ray-gpus-warp.json"],
         lambda d: (
