@@ -141,6 +141,10 @@ def test_rolling_resistance_sum_on_mujoco_c(slope_deg):
         assert s["drive_sum_mean"] > 0.9 * _closed_form(v, 0.0)
 
 
+# -m slow (16 s, MuJoCo C and an MJX compile): rolling resistance against its closed form stays in the default
+# run with test_rolling_resistance_sum_on_mujoco_c and test_tyres.py's test_sum_with_rolling_resistance
+# (MuJoCo C); on MJX it is checked in -m slow only
+@pytest.mark.slow
 def test_rolling_resistance_swept_on_both_engines(tmp_path):
     """C_rr and slope swept together (per-variant friction loss, MJX's mask from a placeholder):
     every variant follows its own closed form, on MuJoCo C and MJX float32."""

@@ -290,7 +290,8 @@ def test_a_step_climb_on_mujoco_c_is_not_chaotic():
     assert all(g <= b for g, b in zip(got, STEP_SPREAD, strict=True)), got
 
 
-@pytest.mark.parametrize("model", ["rigid", "slip"])
+# rigid is -m slow (12 s): warp against C on a step sweep stays in the default run with [slip], the default tyre
+@pytest.mark.parametrize("model", [pytest.param("rigid", marks=pytest.mark.slow), "slip"])
 def test_warp_agrees_with_mujoco_c_on_a_step_sweep(model):
     pytest.importorskip("warp")
     w, c = _engines(Vehicle(tyre=Tyre(model=model)), "warp")

@@ -5,6 +5,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 _SCRIPT = """
 import json, sys
 import numpy as np
@@ -42,6 +44,10 @@ def _result(proc):
 SHARD_RTOL = 3e-6
 
 
+# -m slow (25-33 s, two processes compiling MJX): no cheaper multi-device check exists, so sharding over
+# devices is checked in -m slow only; the default run covers MJX on one device (e.g. test_sweep.py's
+# test_sweep_physics_both_backends_and_single_runs)
+@pytest.mark.slow
 def test_two_devices_match_one():
     # both processes at once: each is mostly one thread compiling, so on 2 cores they take little more
     # than one (34 s one after the other on the project's 2-core machine)

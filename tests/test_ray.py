@@ -151,6 +151,9 @@ def test_ray_sweep_equals_the_in_process_one(tmp_path, local_ray):
     assert batchveh.units(uri)["drive_lf_rms"] == "N m" and batchveh.metadata(uri)["device"].startswith("1 CPU")
 
 
+# -m slow (15 s): a killed worker's chunk runs again, each chunk once, equal results: in the default run
+# by test_shared_host_worker_killed (the shared-host dispatch; this one's, Ray workers only, is slow only)
+@pytest.mark.slow
 def test_worker_killed_mid_sweep_finishes_equal(tmp_path, local_ray, big_reference):
     path = _spec(tmp_path, **BIG)
     expect = big_reference
@@ -180,6 +183,10 @@ def test_worker_killed_mid_sweep_finishes_equal(tmp_path, local_ray, big_referen
     assert not list(out.glob(".*.tmp"))
 
 
+# -m slow (20 s): a driver killed then --resume: in the default run by test_sweep.py's
+# test_resume_after_kill_equals_uninterrupted; --resume over parts Ray workers wrote by
+# test_chunk_that_keeps_failing_is_named_and_the_rest_written
+@pytest.mark.slow
 def test_driver_killed_then_resume_equals_uninterrupted(tmp_path, local_ray, big_reference):
     path = _spec(tmp_path, **BIG)
     expect = big_reference

@@ -349,6 +349,10 @@ def test_wheel_radius_sweep_flags_slip_as_single_runs_do(tmp_path):
         np.testing.assert_allclose(row.slip_ratio, alone["slip_ratio"], atol=1e-6)
 
 
+# -m slow (14 s, two MJX compiles): float64 MJX stays in the default run with test_mjx.py's
+# test_mjx_float64_matches_mujoco_c_step_by_step, one compile per sweep with
+# test_sweep_physics_both_backends_and_single_runs; float32 after float64 and the base-valued chunk are slow only
+@pytest.mark.slow
 def test_precision_is_scoped_and_compiles_follow_from_the_spec(tmp_path):
     """Issue 9.3 and 9.4: a float32 sweep after a float64 one runs in float32 (x64 was switched on
     for the process), and a chunk whose swept values all equal the base value compiles no second
