@@ -54,7 +54,8 @@ RESULTS = ROOT / "benchmarks" / "results"
 sys.path.insert(0, str(ROOT))
 
 
-# One way for the benchmarks to name a machine and their output (bench.py, end_to_end.py)
+# One way for every benchmark script to name a machine and write its output (machine, default_label, result_path,
+# write_result): bench, end_to_end, structural, motors, cpu_overhead, gpu_start and ray_gpus import them from here
 def gpu_names() -> list[str]:
     """The NVIDIA GPUs' names, as nvidia-smi gives them (none without it)."""
     import shutil
@@ -76,6 +77,33 @@ def default_label() -> str:
         return f"cpu-{len(os.sched_getaffinity(0))}core"
     kind = names[0].split()[-1].lower()
     return kind if len(names) == 1 else f"{kind}x{len(names)}"
+
+
+def cpu_model() -> str:
+    """The CPU's model name, as /proc/cpuinfo gives it."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def machine() -> dict:
+    """The machine a result was measured on: architecture, usable CPUs, Python, CPU model, GPUs."""
+    import os
+    import subprocess
+
+    info = {"machine": platform.machine(), "cpus": len(os.sched_getaffinity(0)), "python": platform.python_version()}
+    info["cpu_model"] = cpu_model()
+    try:
+        info["gpus"] = subprocess.run(
+            ["nvidia-smi", "--query-gpu=name,memory.total", "--format=csv,noheader"], capture_output=True, text=True
+        ).stdout.split("\n")[:-1]
+    except OSError:
+        info["gpus"] = []
+    return info
 
 
 def result_path(kind: str, label: str | None = None, out: str | Path | None = None) -> Path:

@@ -52,8 +52,7 @@ import yaml
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
-from bench import default_label, result_path, write_result  # noqa: E402
-from cpu_overhead import cpu_model  # noqa: E402
+from bench import cpu_model, default_label, result_path, write_result  # noqa: E402
 
 SUMMARY = re.compile(
     r"(?P<rows>\d+) rows \((?P<ran>\d+) run now\): (?P<status>.*?) \| (?P<sweep_s>[\d.]+) s wall, "

@@ -31,6 +31,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
+from bench import write_result  # noqa: E402
 from end_to_end import SUMMARY  # noqa: E402
 
 OVERLAP = """
@@ -86,7 +87,7 @@ def main():
     }
     for name, s in summary.items():
         print(f"{name:22} best {s['wall_best_s']:6.1f} s  median {s['wall_median_s']:6.1f} s")
-    Path(args.out).write_text(json.dumps({"spec": args.spec, "runs": runs, "summary": summary}, indent=1) + "\n")
+    write_result({"spec": args.spec, "runs": runs, "summary": summary}, Path(args.out))
 
 
 def _run(spec: str, out: Path, env: dict) -> dict:
@@ -144,7 +145,7 @@ def fresh(args) -> None:
     for name, walls in summary.items():
         print(f"{name:16} wall " + " / ".join(f"{w:.1f} s" for w in walls))
     doc = {"spec": args.spec, "fresh": True, "runs": runs, "summary_wall_s": summary}
-    Path(args.out).write_text(json.dumps(doc, indent=1) + "\n")
+    write_result(doc, Path(args.out))
 
 
 if __name__ == "__main__":

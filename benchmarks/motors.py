@@ -32,7 +32,8 @@ import yaml
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "benchmarks"))
-from structural import FLAT, cli, machine  # noqa: E402
+from bench import machine, result_path, write_result  # noqa: E402
+from structural import FLAT, cli  # noqa: E402
 
 MOTOR = "maxon-353297-48V_NPT025-i40"
 DCMOTOR = {
@@ -89,9 +90,7 @@ def compare(a: str, b: str, label: str, out: str | None) -> dict:
     for k, v in result["per_drive_of_largest"].items():
         print(f"{k:20s} of the largest C value: p99 {v['p99']:.2e}  max {v['max']:.2e}")
     print(f"motor_status agrees on {result['motor_status_agree']:.2%} of {len(c):,} variants")
-    path = Path(out or ROOT / "benchmarks" / "results" / f"{label}-dcmotor-compare.json")
-    path.write_text(json.dumps(result, indent=1, default=str))
-    print(f"wrote {path}")
+    write_result(json.loads(json.dumps(result, default=str)), result_path("dcmotor-compare", label, out))
     return result
 
 
@@ -101,7 +100,7 @@ def main() -> None:
         q.add_argument("part")
         q.add_argument("warp")
         q.add_argument("c")
-        q.add_argument("--label", default="local")
+        q.add_argument("--label", help="the result file's label (default: the machine's, bench.default_label)")
         q.add_argument("--out")
         x = q.parse_args()
         compare(x.warp, x.c, x.label, x.out)
@@ -111,7 +110,7 @@ def main() -> None:
     p.add_argument("--time", type=float, default=2.0, help="simulated seconds per variant")
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--backend", help="mujoco or warp (default: the CLI's auto)")
-    p.add_argument("--label", default="local")
+    p.add_argument("--label", help="the result file's label (default: the machine's, bench.default_label)")
     p.add_argument("--out")
     args = p.parse_args()
     runs = []
@@ -144,9 +143,7 @@ def main() -> None:
     print(f"dcmotor / servo, median rate: {ratio:.3f}")
     result = {"machine": machine(), "when": time.strftime("%Y-%m-%d %H:%M:%S"), "size": args.size,
               "total_time": args.time, "motor": MOTOR, "runs": runs, "median_rate": rate, "ratio": ratio}  # fmt: skip
-    out = Path(args.out or ROOT / "benchmarks" / "results" / f"{args.label}-motors.json")
-    out.write_text(json.dumps(result, indent=1, default=str))
-    print(f"wrote {out}")
+    write_result(json.loads(json.dumps(result, default=str)), result_path("motors", args.label, args.out))
 
 
 if __name__ == "__main__":

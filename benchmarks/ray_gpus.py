@@ -29,7 +29,6 @@ on N GPUs (or CPU workers) at the Ray rate per worker.
 import argparse
 import json
 import os
-import platform
 import re
 import subprocess
 import sys
@@ -38,6 +37,9 @@ import time
 from pathlib import Path
 
 import yaml
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench import default_label, machine, write_result  # noqa: E402  (one way to name the machine and the output)
 
 ROOT = Path(__file__).resolve().parent.parent
 SUMMARY = re.compile(
@@ -206,18 +208,12 @@ def two_gpus(
     outdir: Path, budget: float, backend: str = "warp", scale: float = 1.0, only=None, warmup_n=100_000
 ) -> None:
     t_start = time.time()
-    try:
-        query = ["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"]
-        names = subprocess.run(query, capture_output=True, text=True).stdout.strip().splitlines()
-    except OSError:
-        names = []
-    prefix = ("h200" if "H200" in names[0] else "h100" if "H100" in names[0] else "gpu") if names else "gpu"
-    prefix += f"x{len(names)}"
+    prefix = default_label()  # 'h200x2' on two H200s
     outdir.mkdir(parents=True, exist_ok=True)
     res = {
         "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
         "command": "python benchmarks/ray_gpus.py " + " ".join(sys.argv[1:]),
-        "machine": f"{platform.node()}, {os.cpu_count()} CPUs, GPUs: {', '.join(names)}",
+        "machine": machine(),
         "spec": "benchmarks/slope_100k.yaml (10 s, 2,100 steps with the settle; slip tyre), n set per step",
         "steps": {},
         "skipped": [],
@@ -226,8 +222,8 @@ def two_gpus(
     work = Path(tempfile.mkdtemp(prefix="ray33-"))
 
     def save():
-        (outdir / f"{prefix}-ray-scaling.json").write_text(json.dumps(res, indent=1) + "\n")
-        (outdir / f"{prefix}-warp-spread.json").write_text(json.dumps(spreads, indent=1) + "\n")
+        write_result(res, outdir / f"{prefix}-ray-scaling.json")
+        write_result(spreads, outdir / f"{prefix}-warp-spread.json")
 
     def step(name, guess_s, n, executor, args=(), env=None, kill=False):
         if only and name not in only and not name.startswith("warmup"):
@@ -330,7 +326,7 @@ def main():
     res = {
         "date": time.strftime("%Y-%m-%d %H:%M"),
         "command": "python benchmarks/ray_gpus.py " + " ".join(sys.argv[1:]),
-        "machine": f"{platform.node()}, {os.cpu_count()} CPUs, {platform.system()}",
+        "machine": machine(),
         "backend": args.backend,
         "variants": args.size,
         "note": args.note,
@@ -341,7 +337,7 @@ def main():
         "ten_million_x_2100_steps_s": ten_million,
     }
     if args.out:
-        Path(args.out).write_text(json.dumps(res, indent=1) + "\n")
+        write_result(res, Path(args.out))
 
 
 if __name__ == "__main__":

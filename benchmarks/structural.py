@@ -26,8 +26,6 @@ Each writes benchmarks/results/LABEL-structural-PART.json (or --out) and prints 
 
 import argparse
 import json
-import os
-import platform
 import re
 import signal
 import subprocess
@@ -51,24 +49,9 @@ SUMMARY = re.compile(
     r"^(\d+) rows \((\d+) run now\).*\| ([\d.]+) s wall, compile ([\d.]+) s, ([\d.e+]+) variant-steps/s"
 )
 ESTIMATE = re.compile(r"about (\d+ min|[\d.]+ h|\d+ s) ")
+from bench import machine, result_path, write_result  # noqa: E402  (one way to name the machine and the output)
+
 STATS = ("mean", "peak_lp_all")  # per-wheel columns compared: drive_{corner}_{stat}
-
-
-def machine() -> dict:
-    info = {"machine": platform.machine(), "cpus": len(os.sched_getaffinity(0)), "python": platform.python_version()}
-    try:
-        info["cpu_model"] = next(
-            line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo") if line.startswith("model name")
-        )
-    except (OSError, StopIteration):
-        pass
-    try:
-        info["gpus"] = subprocess.run(
-            ["nvidia-smi", "--query-gpu=name,memory.total", "--format=csv,noheader"], capture_output=True, text=True
-        ).stdout.split("\n")[:-1]
-    except OSError:
-        info["gpus"] = []
-    return info
 
 
 def write_spec(folder: Path, name: str, size: int, total_time: float, params: dict, lhs: bool) -> Path:
@@ -314,7 +297,7 @@ def main() -> None:
     p.add_argument("--warm", action="store_true", help="sweep: one small run of each spec first (caches)")
     p.add_argument("--kill-after", type=int, default=2, help="resume: parts written before the kill")
     p.add_argument("--reference", help="resume: an uninterrupted run's result folder")
-    p.add_argument("--label", default="local", help="machine label for the file name")
+    p.add_argument("--label", help="machine label for the file name (default: the machine's, bench.default_label)")
     p.add_argument("--out", help="JSON path (default benchmarks/results/LABEL-structural-PART.json)")
     args = p.parse_args()
     result = {
@@ -323,10 +306,8 @@ def main() -> None:
         "when": time.strftime("%Y-%m-%d %H:%M:%S"),
         **globals()[args.part](args),
     }
-    out = Path(args.out or ROOT / "benchmarks" / "results" / f"{args.label}-structural-{args.part}.json")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=1, default=str))
-    print(f"wrote {out}")
+    path = result_path(f"structural-{args.part}", args.label, args.out)
+    write_result(json.loads(json.dumps(result, default=str)), path)
 
 
 if __name__ == "__main__":
