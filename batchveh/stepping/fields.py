@@ -275,8 +275,6 @@ def motor_inputs(
 ) -> None:
     """Copy the dcmotors' rows of each variant's motor compile, `models[index[i]]`, into `inputs`: their
     actuators' gear, gain, dynamics and force range, and their joints' armature (the rotors' J N^2)."""
-    from batchveh.model.vehicle import layout
-
     lay = layout(m)
     for key, rows in ((k, lay.motor_act) for k in MOTOR_ACTUATOR_INPUTS):
         if key not in inputs:

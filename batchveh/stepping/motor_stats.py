@@ -9,7 +9,7 @@ efficiency), per step:
   MuJoCo's current limit, the limited current), the real current i = i' / eta;
 - the winding's temperature T = T_amb + the thermal state (MuJoCo's act), R'(T) = R' (1 + alpha
   (T - T_ref)): the resistance the simulated motor sees. The temperature columns come from batchveh's
-  own integration of the same one-node model with the current the motor delivered (`winding`): MuJoCo
+  own integration of the same one-node model with the current the motor delivered (`windings`): MuJoCo
   3.17's state heats with the current before its current limit clips it;
 - the terminal voltage v = i' R'(T) + K w (w: the motor's speed), and the electrical power v i,
   drawn where positive, regenerated where negative;
@@ -190,24 +190,12 @@ def init(batch: tuple[int, ...], xp=np, dtype=None) -> dict[str, Any]:
     }
 
 
-def winding(temp, current, cfg: MotorStatsConfig, dt: float, xp=np, consts=None):
-    """The windings' temperature after one step of `dt` from `temp` (..., 8) with the motors' real current
-    (..., 8): C dT/dt = i^2 R (1 + alpha (T - 25)) - (T - T_amb) / R_T, explicit Euler (dt / tau < 3e-4 for
-    the catalogue's windings at 5 ms). MuJoCo 3.17's own thermal state heats with the current before the
-    current limit clips it (model/motors.py); this one heats with the current the motor delivered."""
-    c = constants_of(cfg, xp=xp, dtype=current.dtype) if consts is None else consts
-    r_t, cap = xp.asarray(c["R_T"], current.dtype), xp.asarray(c["C"], current.dtype)
-    thermal = xp.asarray(cfg.thermal)
-    r0 = xp.asarray(c["R"], current.dtype) * xp.asarray(c["eta"], current.dtype)  # the real winding's R at 25 C
-    t_amb = xp.asarray(c["T_amb"], current.dtype)
-    heat = current * current * r0 * (1 + COPPER_TEMPCOEF * (temp - REFERENCE_TEMP))
-    cool = (temp - t_amb) / xp.where(thermal, r_t, 1.0)
-    return xp.where(thermal, temp + dt * (heat - cool) / xp.where(thermal, cap, 1.0), t_amb)
-
-
 def windings(temp, current, cfg: MotorStatsConfig, dt: float, xp=np, consts=None):
-    """`winding` over a block of steps at once, (..., B, 8) after each step from `temp` (..., 8) with the
-    currents (..., B, 8). Each step is linear in T, T' = a T + b, so T after step k is A_k (T_0 + sum_{j<=k}
+    """The windings' temperatures (..., B, 8) after each step of `dt` of a block, from `temp` (..., 8) with
+    the motors' real currents (..., B, 8): C dT/dt = i^2 R (1 + alpha (T - 25)) - (T - T_amb) / R_T, explicit
+    Euler (dt / tau < 3e-4 for the catalogue's windings at 5 ms). MuJoCo 3.17's own thermal state heats with
+    the current before the current limit clips it (model/motors.py); this one heats with the current the
+    motor delivered. Each step is linear in T, T' = a T + b, so T after step k is A_k (T_0 + sum_{j<=k}
     b_j / A_j) with A_k = a_0 ... a_k (a close to 1 - dt / tau: the products stay near 1 over a block)."""
     c = constants_of(cfg, xp=xp, dtype=current.dtype) if consts is None else consts
     thermal = xp.asarray(cfg.thermal)
