@@ -6,7 +6,11 @@
 Both run the first n variants of sweeps/slope.yaml (1000 steps, MuJoCo's default solver).
 The peer is `bench.bench_raw_rollout`: Batch.rollout in blocks with the controls precomputed
 outside its clock, recording qpos, qvel and qfrc_actuator, in batches of --peer-variants
-(pick them with bench.py's scan). batchveh is `run_sweep` with Parquet written, timed by
+(pick them with bench.py's scan). --peers names the vehicles it rolls out, each alternated in
+the same run: `same` is batchveh's own compiled model (with the slip tyre: frictionless
+condim-1 wheel contacts and no tyre forces, the cheapest MuJoCo step of this vehicle), `rigid`
+the same vehicle on MuJoCo's own frictional contact (`tyre: {model: rigid}`), what a user would
+run in raw MuJoCo instead of batchveh's tyre. batchveh is `run_sweep` with Parquet written, timed by
 its own wall clock (make_batch, the engine, the Parquet parts), at its default chunk and
 thread count unless --chunks / --threads name others (each one a column). Shared machines
 move both by 10-30% between runs, so they alternate (raw, then each batchveh setting), the
@@ -16,6 +20,7 @@ Prints one JSON line (also written with --out).
 """
 
 import argparse
+import dataclasses
 import json
 import os
 import platform
@@ -119,6 +124,9 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--n", type=int, default=2048, help="variants (the first n of sweeps/slope.yaml)")
     ap.add_argument("--repeat", type=int, default=5, help="pairs")
+    ap.add_argument(
+        "--peers", nargs="+", choices=("same", "rigid"), default=["same"], help="vehicles the raw peer rolls out"
+    )
     ap.add_argument("--peer-variants", type=int, default=None, help="peer batch size (default: all n in one)")
     ap.add_argument("--peer-block", type=int, default=100)
     ap.add_argument("--peer-threads", type=int, default=0, help="0: every CPU this process may use")
@@ -144,19 +152,28 @@ def main():
     def label(c, t):
         return f"chunk{c or CPU_CHUNK['mujoco']}_threads{t or default_threads()}"
 
+    def raw_key(peer):
+        return "raw" if peer == "same" else f"raw_{peer}"
+
+    rigid = dataclasses.replace(spec.vehicle, tyre=dataclasses.replace(spec.vehicle.tyre, model="rigid"))
+    peer_specs = {"same": spec, "rigid": dataclasses.replace(spec, vehicle=rigid)}
     load0 = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "sweep"
         for c, t in settings:  # warm-up: JAX's compile of the control schedule, imports, caches
-            sweep_rate(spec, min(args.n, 64), out, c or None, t)
+            sweep_rate(spec, min(args.n, 64 * (t or default_threads())), out, c or None, t)  # every part, its pool
         pairs = []
         for r in range(args.repeat):
-            raw, _ = bench_raw_rollout(spec, table, steps, args.peer_block, peer_threads, args.peer_variants)
-            pair = {"raw": raw}
+            pair = {}
+            for peer in args.peers:
+                pair[raw_key(peer)], _ = bench_raw_rollout(
+                    peer_specs[peer], table, steps, args.peer_block, peer_threads, args.peer_variants
+                )
             for c, t in settings:
                 rate = sweep_rate(spec, args.n, out, c or None, t)
                 pair[f"batchveh_{label(c, t)}"] = rate
-                pair[f"ratio_{label(c, t)}"] = rate / raw
+                for peer in args.peers:
+                    pair[f"ratio{'' if peer == 'same' else '_vs_' + peer}_{label(c, t)}"] = rate / pair[raw_key(peer)]
             pairs.append(pair)
             print(f"pair {r + 1}: " + ", ".join(f"{k} {v:.4g}" for k, v in pair.items()), flush=True)
         prof = profile_sweep(spec, args.n, out, settings[0][0] or None) if args.profile else None
@@ -178,11 +195,12 @@ def main():
             "variants_per_batch": args.peer_variants or args.n,
             "block": args.peer_block,
             "threads": peer_threads,
+            "vehicles": {"same": "batchveh's compiled model", "rigid": "tyre: {model: rigid}"},
         },
         "batchveh": "run_sweep (mujoco engine, Parquet written), its own wall clock",
         "pairs": pairs,
         "median_ratio": {k: statistics.median(p[k] for p in pairs) for k in ratios},
-        "median_raw": statistics.median(p["raw"] for p in pairs),
+        **{f"median_{raw_key(p)}": statistics.median(q[raw_key(p)] for q in pairs) for p in args.peers},
         "profile": prof,
     }
     print(json.dumps(res))

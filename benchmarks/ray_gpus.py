@@ -205,7 +205,13 @@ def spread(a: Path, b: Path) -> dict:
 
 
 def two_gpus(
-    outdir: Path, budget: float, backend: str = "warp", scale: float = 1.0, only=None, warmup_n=100_000
+    outdir: Path,
+    budget: float,
+    backend: str = "warp",
+    scale: float = 1.0,
+    only=None,
+    warmup_n=100_000,
+    rounds_100k: int = 1,
 ) -> None:
     t_start = time.time()
     prefix = default_label()  # 'h200x2' on two H200s
@@ -247,8 +253,10 @@ def two_gpus(
     if a and b and "error" not in a and "error" not in b:
         res["ray_over_one_gpu_process"] = b["process_s"] / a["process_s"]
         save()
-    step("100k_ray", 40, 100_000, "ray")
-    step("100k_local", 40, 100_000, "local")
+    for r in range(1, rounds_100k + 1):  # alternated: a shared host drifts between runs
+        tail = "" if r == 1 else f"_{r}"
+        step(f"100k_ray{tail}", 40, 100_000, "ray")
+        step(f"100k_local{tail}", 40, 100_000, "local")
     same = ["--chunk-size", str(max(1, int(50176 * scale)))]
     pairs = {
         "gpu0_again": ("same_gpu0_a", "same_gpu0_b"),
@@ -287,11 +295,17 @@ def main():
     ap.add_argument("--scale", type=float, default=1.0, help="with --two-gpus: times every size (a smoke test)")
     ap.add_argument("--only", help="with --two-gpus: the steps to run, by name, comma-separated (and the warm-up)")
     ap.add_argument("--warmup-n", type=int, default=100_000, help="with --two-gpus: variants of the warm-up")
+    ap.add_argument(
+        "--rounds-100k",
+        type=int,
+        default=1,
+        help="with --two-gpus: alternated pairs of 100k_ray / 100k_local (then _2, ...)",
+    )
     args = ap.parse_args()
     if args.two_gpus:
         backend = args.backend if args.backend != "mjx" else "warp"
         only = args.only.split(",") if args.only else None
-        return two_gpus(Path(args.two_gpus), args.budget, backend, args.scale, only, args.warmup_n)
+        return two_gpus(Path(args.two_gpus), args.budget, backend, args.scale, only, args.warmup_n, args.rounds_100k)
     sys.path.insert(0, str(ROOT))
     from batchveh.sweeping.spec import load_spec
 

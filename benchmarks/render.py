@@ -6,7 +6,7 @@ benchmarks/NOTES.md around them.
 
 Each row of the table names what was measured, reads its figure from its result file (so the page
 cannot drift from the file), names the machine and gives the one command that repeats it. A row
-kind that matches files by a pattern (`*-motors*.json`, `*-gpu-start*.json`) gives one row per file,
+kind that matches files by a pattern (`*-motors*.json`) gives one row per file,
 so that a new run of the same benchmark shows up without an edit here. Earlier runs are kept in
 benchmarks/results/archive.json (told in benchmarks/ARCHIVE.md); a result file that no row reads
 is named under the table, so that none goes unseen.
@@ -135,6 +135,32 @@ def _ray1m(d: dict) -> str:
     )
 
 
+def _overhead(d: dict) -> str:
+    pairs = d["pairs"]
+    mine = next(k for k in pairs[0] if k.startswith("batchveh_"))
+    setting = mine.removeprefix("batchveh_")
+
+    def med(key):
+        return statistics.median(p[key] for p in pairs)
+
+    return (
+        f"**{med('ratio_vs_rigid_' + setting):.2f}x** the rigid contact's peer, {med('ratio_' + setting):.2f}x the "
+        f"frictionless one (medians of {len(pairs)} pairs; batchveh {g(med(mine))}, peers {g(med('raw_rigid'))} and "
+        f"{g(med('raw'))} variant-steps/s)"
+    )
+
+
+def _small_ray(d: dict) -> str:
+    steps = d["steps"]
+    ray = [v["process_s"] for k, v in steps.items() if k.startswith("100k_ray")]
+    local = [v["process_s"] for k, v in steps.items() if k.startswith("100k_local")]
+    return (
+        f"--executor ray median **{statistics.median(ray):.1f} s** ({min(ray):.1f}-{max(ray):.1f}) against in-process "
+        f"{statistics.median(local):.1f} s ({min(local):.1f}-{max(local):.1f}), {len(ray)} pairs: "
+        f"{statistics.median(ray) / statistics.median(local):.3f}x"
+    )
+
+
 def _motors(d: dict) -> str:
     m = d["median_rate"]
     return (
@@ -144,20 +170,15 @@ def _motors(d: dict) -> str:
 
 
 def _gpu_start(d: dict) -> str:
-    if d.get("fresh"):  # the first run on a fresh machine: the warp engine's prebuild against serial builds
-        s = d["summary_wall_s"]
+    """The first run on a fresh machine: the warp engine's prebuild against serial builds."""
+    s = d["summary_wall_s"]
 
-        def span(k):
-            return f"{min(s[k]):.1f}-{max(s[k]):.1f} s"
+    def span(k):
+        return f"{min(s[k]):.1f}-{max(s[k]):.1f} s"
 
-        return (
-            f"first run on empty caches **{span('prebuild first')}** with the prebuild against "
-            f"{span('serial first')} serial; warm runs {span('prebuild warm')} / {span('serial warm')}"
-        )
-    s = d["summary"]
     return (
-        f"median process {s['no-prealloc']['wall_median_s']:.1f} s grown on demand against "
-        f"{s['plain']['wall_median_s']:.1f} s reserved at start"
+        f"first run on empty caches **{span('prebuild first')}** with the prebuild against "
+        f"{span('serial first')} serial; warm runs {span('prebuild warm')} / {span('serial warm')}"
     )
 
 
@@ -186,15 +207,20 @@ ROWS = [
         "`python benchmarks/end_to_end.py sweeps/slope.yaml --tyres --rounds 2`",
     ),
     Row(
-        "batchveh `mujoco` (slip tyre, Parquet written) against raw `mujoco.batch` on the same frictionless "
-        "model with no tyre forces, 2,048 variants, alternated pairs",
+        "batchveh `mujoco` (slip tyre, statistics, Parquet written) against raw `mujoco.batch` of the same vehicle on "
+        "MuJoCo's rigid contact, and on batchveh's own frictionless model with no tyre forces, alternated pairs",
         ["cpu-2core-overhead-slip.json"],
-        lambda d: (
-            f"**{statistics.median(p['ratio_chunk4096_threads2'] for p in d['pairs']):.2f}x** (median of "
-            f"{len(d['pairs'])} pairs; the peer {g(statistics.median(p['raw'] for p in d['pairs']))} variant-steps/s)"
-        ),
+        _overhead,
         lambda d: f"{TWO_CORES} ({d['machine']})",
-        "`python benchmarks/cpu_overhead.py --n 2048 --repeat 5`",
+        "`python benchmarks/cpu_overhead.py --n 2048 --repeat 5 --peers same rigid --profile`",
+    ),
+    Row(
+        "The same on 16 cores of a GPU host (`taskset -c 0-15`, `JAX_PLATFORMS=cpu`), 4,096 variants, the parts in "
+        "15 worker processes",
+        ["h100-cpu16-overhead.json"],
+        _overhead,
+        "one H100 host's 16 cores, no GPU used",
+        "`JAX_PLATFORMS=cpu taskset -c 0-15 python benchmarks/cpu_overhead.py --n 4096 --repeat 3 --peers same rigid`",
     ),
     Row(
         "The warp engine, slip tyre (the default), 131,072 variants x 1,100 steps, with the CPU peer, the rigid "
@@ -250,29 +276,25 @@ ROWS = [
         "`python benchmarks/ray_gpus.py --two-gpus OUT --only 1m_local_1gpu,1m_ray_2gpu`",
     ),
     Row(
-        "Two GPUs through Ray: 100,000 x 10 s with --executor ray (below Ray's break-even it runs in-process) "
-        "against in-process, and 400,000 x 10 s with a Ray worker killed (SIGKILL) in its first chunk",
+        "Two GPUs through Ray: 400,000 x 10 s with a Ray worker killed (SIGKILL) in its first chunk",
         ["h200x2-ray-kill.json"],
         lambda d: (
-            f"100,000: **{d['steps']['100k_ray']['process_s']:.1f} s** against "
-            f"{d['steps']['100k_local']['process_s']:.1f} s (one run each); killed worker: the sweep finished "
-            f"in {d['steps']['400k_ray_worker_killed']['process_s']:.1f} s, "
+            f"the sweep finished in **{d['steps']['400k_ray_worker_killed']['process_s']:.1f} s**, "
             f"{d['steps']['400k_ray_worker_killed']['rows']:,} rows, "
             f"{d['steps']['400k_ray_worker_killed']['part_files']} parts for "
             f"{d['steps']['400k_ray_worker_killed']['manifest_parts']} chunks (each once)"
         ),
         "two H200s of one host, 32 cores",
-        "`python benchmarks/ray_gpus.py --two-gpus OUT --only 400k_ray_worker_killed,100k_ray,100k_local`",
+        "`python benchmarks/ray_gpus.py --two-gpus OUT --only 400k_ray_worker_killed`",
     ),
     Row(
-        "Ray with one worker on one GPU against the in-process sweep, warp, 131,072 variants",
-        ["h200-ray-gpus-warp.json"],
-        lambda d: (
-            f"**{d['ray_over_local']:.3f}x** after the compile ({g(d['best_rate_after_compile']['ray'])} "
-            f"against {g(d['best_rate_after_compile']['local'])})"
-        ),
-        H200,
-        "`python benchmarks/ray_gpus.py --backend warp --size 131072 --repeat 2`",
+        "A small sweep on a two-GPU host: 100,000 x 10 s with --executor ray (below Ray's break-even it runs "
+        "in-process) against in-process, alternated pairs",
+        ["h100x2-ray-100k.json"],
+        _small_ray,
+        "two H100s of one host, 32 cores",
+        "`python benchmarks/ray_gpus.py --two-gpus OUT --rounds-100k 3 --only "
+        "100k_ray,100k_local,100k_ray_2,100k_local_2,100k_ray_3,100k_local_3`",
     ),
     Row(
         "A sweep over the vehicle itself: 1,000,000 variants x 10 s, LHS, with payload mass and wheel radius "
@@ -316,7 +338,7 @@ ROWS = [
     ),
     Row(
         "Motors in the loop near their limits, warp float32 against MuJoCo C float64, 2,048 random variants x 10 s "
-        "(current RMS, temperature rise, energy, speed shortfall per drive; bus energy)",
+        "on the slip tyre (current RMS, temperature rise, energy, speed shortfall per drive; bus energy)",
         ["h200-warp-vs-cpu-2core-c-dcmotor-compare.json"],
         lambda d: (
             "p99 **"
@@ -350,13 +372,6 @@ ROWS = [
         _gpu_start,
         H200,
         "`python benchmarks/gpu_start.py benchmarks/slope_100k.yaml --fresh --rounds 1`",
-    ),
-    Row(
-        "Starting a sweep process on a GPU: JAX's memory grown on demand against reserved at start, alternated",
-        ["*-gpu-start*.json"],
-        _gpu_start,
-        H200_UNNAMED,
-        "`python benchmarks/gpu_start.py benchmarks/slope_100k.yaml --rounds 2`",
     ),
 ]
 

@@ -66,7 +66,7 @@ def _params(vehicle, load_guess_mass=None):
         "hub.mass": v.hub.mass,
         "chassis.mass": v.chassis.mass,
         "payload.mass": v.payload.mass,
-        "motors.armature": v.motors.armature,
+        "_drive_armature": v.motors.armature,  # batch.drive_armature: the servo's
         "tyre.relaxation_length": v.tyre.relaxation_length,
         "gravity": 9.81,
     }

@@ -157,7 +157,7 @@ def _steady(kin, fc, mu=0.9, c_s=18.0, steps=4000, dt=0.005):
             "tyre.patch_length": 0.02,
             "wheel.rolling_resistance": 0.0,
             "wheel.mass": 3.0,
-            "motors.armature": 0.2,
+            "_drive_armature": 0.2,
         }
     )
     tp = {k: np.asarray(x)[..., 0] for k, x in tp.items()}

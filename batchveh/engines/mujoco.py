@@ -14,6 +14,8 @@ import contextlib
 import copy
 import os
 from collections.abc import Iterator
+from functools import partial
+from typing import Any
 
 import jax
 import jax.numpy as jnp
@@ -26,13 +28,18 @@ from batchveh.model.scenarios import Scenario, control_schedule
 from batchveh.model.vehicle import layout
 from batchveh.stepping import motor_stats, stats
 from batchveh.stepping.batch import VariantBatch, servo_damping
-from batchveh.stepping.rollout import MujocoTyre, float_precision
+from batchveh.stepping.rollout import MujocoTyre, float_precision, host_cpu
 
 # Steps per Batch.rollout call. The statistics add each block's sums to the carry, so the block
 # length fixes the order of the float additions: another length changes results in the last bits.
 BLOCK = 100
 TILE = 256  # variants per fold call (see MujocoEngine.run)
 MIN_PART = 64  # variants: a smaller chunk runs as one part (MujocoEngine.parts)
+# parts from which a chunk's parts run in worker processes, not threads: each part's Python between MuJoCo's
+# steps (the wheel-ground step's call, the records) holds the GIL, and with 15 parts on 16 cores the threads
+# queued on it (benchmarks/results/h200-cpu16-overhead.json: 0.74x raw MuJoCo on the rigid contact, 9.7 of
+# 16 cores busy); on 2 cores two threads run as fast (MujocoEngine.processes)
+PROCESS_PARTS = 4
 # model fields mujoco.batch shares between all simulations (asset data): a chunk runs one batch per value
 SHARED_ASSETS = ("hfield_data",)
 # warnings that mean the simulation's state is no longer valid
@@ -83,10 +90,17 @@ class MujocoEngine:
     compiles = 0
 
     def __init__(
-        self, scenario: Scenario, cfg: stats.StatsConfig, chunk_size: int, nthread: int = 0, block: int = BLOCK
+        self,
+        scenario: Scenario,
+        cfg: stats.StatsConfig,
+        chunk_size: int,
+        nthread: int = 0,
+        block: int = BLOCK,
+        processes: bool | None = None,
     ):
         self.scenario, self.cfg, self.chunk_size, self.block = scenario, cfg, chunk_size, block
         self.nthread = nthread or default_threads()
+        self.processes = processes  # parts in worker processes: None, from PROCESS_PARTS parts on
         self.warnings: list[str] = []  # MuJoCo's messages, first few of the sweep
         # controls (n, block, nu) for a block of steps of every variant, computed by JAX
         self._ctrl = jax.jit(jax.vmap(control_schedule(scenario), in_axes=(0, None)))
@@ -130,8 +144,14 @@ class MujocoEngine:
             else:
                 edges = np.linspace(0, batch.n, parts + 1).astype(int)
                 pieces = [_rows(batch, slice(lo, hi)) for lo, hi in zip(edges[:-1], edges[1:], strict=True)]
-                with ThreadPoolExecutor(parts) as pool:
-                    cols = list(pool.map(lambda piece: self._run_part(piece, 1), pieces))
+                if self.processes if self.processes is not None else parts >= PROCESS_PARTS:
+                    pool = _process_pool(parts)
+                    done = list(pool.map(partial(_run_part_alone, self.scenario, self.cfg, self.block), pieces))
+                    cols = [c for c, _ in done]
+                    messages.extend(m for _, found in done for m in found)
+                else:
+                    with ThreadPoolExecutor(parts) as pool:
+                        cols = list(pool.map(lambda piece: self._run_part(piece, 1), pieces))
                 out = {k: np.concatenate([c[k] for c in cols]) for k in cols[0]}
         self.warnings.extend(messages[: max(0, 5 - len(self.warnings))])
         return out
@@ -186,7 +206,10 @@ class MujocoEngine:
             # float64, as MuJoCo C steps (the x64 scope is per thread: this worker's own)
             with float_precision("f64"):
                 if not params:
-                    params.update({key: jnp.asarray(v, jnp.float64) for key, v in batch.params.items()})
+                    cpu = host_cpu()  # on a GPU host too: these small calls stay beside MuJoCo C
+                    params.update(
+                        {key: jax.device_put(np.asarray(v, np.float64), cpu) for key, v in batch.params.items()}
+                    )
                 steps = np.arange(edges[k], edges[k + 1])
                 # times padded to one length (one compiled shape); the schedule is element-wise, so
                 # the padding changes none of the other values
@@ -278,6 +301,34 @@ class MujocoEngine:
         out = {k: np.concatenate([c[k] for c in cols]) for k in cols[0]}
         out["solver_limit_share"] = at_limit / self.cfg.n_steps
         return out
+
+
+_POOLS: dict[int, Any] = {}  # worker processes by count, kept for the process's life (their imports and compiles)
+_ALONE: dict[bytes, MujocoEngine] = {}  # in a worker process: its engine per (scenario, statistics, block)
+
+
+def _process_pool(workers: int):
+    """`workers` worker processes (started fresh, not forked: JAX's threads do not survive a fork), made once."""
+    if workers not in _POOLS:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        _POOLS[workers] = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
+    return _POOLS[workers]
+
+
+def _run_part_alone(scenario: Scenario, cfg: stats.StatsConfig, block: int, batch: VariantBatch):
+    """One part's columns in a worker process, on one MuJoCo thread, and MuJoCo's warnings there."""
+    import pickle
+
+    key = pickle.dumps((scenario, cfg, block))
+    engine = _ALONE.get(key)
+    if engine is None:
+        _ALONE.clear()
+        engine = _ALONE[key] = MujocoEngine(scenario, cfg, batch.n, nthread=1, block=block, processes=False)
+    with captured_warnings() as messages:
+        cols = engine._run_part(batch, 1)
+    return cols, messages[:5]
 
 
 def _rows(batch: VariantBatch, rows: slice) -> VariantBatch:

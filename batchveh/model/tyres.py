@@ -122,9 +122,10 @@ def params(p: Mapping[str, Any], xp=np) -> dict[str, Any]:
         "c_s": col(p["tyre.slip_stiffness"]),
         "length": col(p["tyre.relaxation_length"]),
         "c_rr": col(p["wheel.rolling_resistance"]),
-        # the lightest mass the tyre force meets at the rim: the wheel's spin inertia with the
-        # motor's reflected rotor inertia, over r^2 (a towing wheel has no servo to hold it)
-        "rim_mass": col(p["wheel.mass"]) / 2 + col(p["motors.armature"]) / col(p["wheel.radius"]) ** 2,
+        # the lightest mass the tyre force meets at the rim: the wheel's spin inertia with the drive
+        # joint's armature (the servo's, or a dcmotor's rotor J N^2), over r^2 (a towing wheel has no
+        # servo to hold it)
+        "rim_mass": col(p["wheel.mass"]) / 2 + col(p["_drive_armature"]) / col(p["wheel.radius"]) ** 2,
     }
 
 

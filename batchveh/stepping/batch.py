@@ -219,7 +219,22 @@ def make_batch(
     rolls = "wheel.rolling_resistance" in swept or vehicle.wheel.rolling_resistance > 0
     if vehicle.tyre.model == "rigid" and rolls and any(k in swept for k in ROLLING_INPUTS):
         fields["dof_frictionloss"] = _rolling(model, params, n)
+    params[DRIVE_ARMATURE] = drive_armature(model, fields, n)
     return VariantBatch(model=model, fields=fields, params=params, n=n)
+
+
+# each variant's drive-joint armature (kg m^2), a derived parameter: the slip tyre's and the soil's
+# stability floor reads it (the lightest mass their force meets at the rim)
+DRIVE_ARMATURE = "_drive_armature"
+
+
+def drive_armature(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], n: int) -> np.ndarray:
+    """(n,) the front-left drive joint's armature of each variant, as the compiled program has it: the
+    servo's `motors.armature`, or a dcmotor's rotor J N^2 (its catalogue entry's and gear ratio's, which
+    may differ per variant). All four drives carry the same."""
+    dof = layout(model).motor_dof[0]
+    arm = np.asarray(fields["dof_armature"])[:, dof] if "dof_armature" in fields else model.dof_armature[dof]
+    return np.broadcast_to(np.asarray(arm, float), (n,)).copy()
 
 
 # the parameters the rolling-resistance torque depends on (vehicle.rolling_resistance_torque)

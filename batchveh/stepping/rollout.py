@@ -45,6 +45,12 @@ def float_precision(name: str):
     return enable_x64() if name == "f64" else disable_x64()
 
 
+def host_cpu() -> jax.Device:
+    """The host's CPU as a JAX device: where the `mujoco` engine's JAX work (controls, the wheel-ground step
+    between MuJoCo C's steps) runs, on a GPU host too, instead of one small GPU call and copy per step."""
+    return jax.devices("cpu")[0]
+
+
 def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: Layout, body_out, motors=None):
     """The scan's body over ((data, tyre state, drive angle setpoints), reductions). `body_out(d, acc,
     sample, i)` returns ((d, acc), output) as a scan body would. With dcmotors, the scenario's servo
@@ -75,6 +81,8 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
             d = d.replace(xfrc_applied=xfrc)
         qvel_prev = d.qvel
         d = mjx.step(model, d.replace(ctrl=sim_ctrl))
+        if ratios is not None:
+            d, theta = wrap_drive_angles(d, theta, lay)
         dv = take(d.qvel - qvel_prev, lay.motor_dof)
         electric = None
         if motors is not None:  # the dcmotors' electrical sample (motor_stats), a block of one step
@@ -87,6 +95,18 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
         return ((d, ts, theta), acc), out
 
     return body
+
+
+def wrap_drive_angles(d: mjx.Data, theta, lay: Layout):
+    """The drive joints' angles and their setpoints `theta`, less the same whole turns: back within half a turn
+    of zero. In float32 a wheel's angle grows by some 0.05 rad a step to about 100 rad in 10 s, and each step's
+    sum rounds to its ulp (7.6e-6 rad there): the angle drifts by about 1e-4 rad from float64's, which the
+    dcmotor's angle gain (200 N m/rad) turns into a front/rear torque split of 0.03 N m. Both lose the same
+    float32 value (within a factor of 2 of each, so the subtractions are exact), so the angle error, the
+    controller's input, is unchanged; a wheel's shape is the same a turn on. No statistic reads a drive angle."""
+    q = take(d.qpos, lay.motor_qpos[:4])
+    shift = (jnp.round(q / (2 * jnp.pi)) * (2 * jnp.pi)).astype(q.dtype)
+    return d.replace(qpos=d.qpos.at[..., lay.motor_qpos[:4]].add(-shift)), theta - shift
 
 
 def tyre_step(d: mjx.Data, ts, tp, lay: Layout, dt):
@@ -233,9 +253,9 @@ class MujocoTyre:
         self.nbody = m.nbody
         self._step = _c_step(lay, float(m.opt.timestep), m.nbody)
         tp = wheels.params({k: np.asarray(v, np.float64) for k, v in params.items()}, lay.wheel_ground, np)
-        with float_precision("f64"):
-            self.tp = jax.tree.map(jnp.asarray, tp)
-            self.state = jnp.asarray(wheels.init_state(np.shape(params["friction"]), np))
+        with float_precision("f64"):  # committed to the CPU: the jitted step runs there
+            self.tp = jax.device_put(tp, host_cpu())
+            self.state = jax.device_put(wheels.init_state(np.shape(params["friction"]), np), host_cpu())
 
     def wrench(self, xpos, xmat, qvel, cfrc_ext, xfrc_applied) -> np.ndarray:
         with float_precision("f64"):
