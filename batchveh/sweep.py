@@ -508,7 +508,7 @@ def tune_process_for_one_job() -> None:
       cycles are still found.
     - JAX's GPU memory: by default it reserves 75% of each GPU when its backend starts. Growing the
       pool on demand instead saved 1.0 s of a warm 100,000-variant sweep process on one H200
-      (median 21.0 s -> 19.9 s, benchmarks/results/h200-gpu-start.json); a sweep allocates its
+      (median 21.0 s -> 19.9 s, benchmarks/results/archive.json: h200-gpu-start.json); a sweep allocates its
       buffers once per chunk shape, and the chunk size still follows the same memory limit. A value
       the user set is kept.
     """

@@ -136,6 +136,8 @@ def main():
     ap.add_argument("--note", default="", help="free text kept in the JSON (e.g. other load on the machine)")
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
+    # this script guards its main, so the engine may run its parts in worker processes (engines/mujoco.py)
+    os.environ.setdefault("BATCHVEH_CPU_PROCESSES", "1")
     import mujoco
     from bench import bench_raw_rollout
 

@@ -154,10 +154,11 @@ def _small_ray(d: dict) -> str:
     steps = d["steps"]
     ray = [v["process_s"] for k, v in steps.items() if k.startswith("100k_ray")]
     local = [v["process_s"] for k, v in steps.items() if k.startswith("100k_local")]
+    pairs = [r / lo for r, lo in zip(ray, local, strict=True)]  # steps in the order run: ray, then local
     return (
         f"--executor ray median **{statistics.median(ray):.1f} s** ({min(ray):.1f}-{max(ray):.1f}) against in-process "
         f"{statistics.median(local):.1f} s ({min(local):.1f}-{max(local):.1f}), {len(ray)} pairs: "
-        f"{statistics.median(ray) / statistics.median(local):.3f}x"
+        f"{statistics.median(ray) / statistics.median(local):.3f}x (each pair {min(pairs):.2f}-{max(pairs):.2f})"
     )
 
 

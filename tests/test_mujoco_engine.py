@@ -1,8 +1,12 @@
 """The `mujoco` engine's parts: a chunk with the slip tyre runs as one part per CPU, in threads on small
 hosts and in worker processes from PROCESS_PARTS parts on (batchveh/engines/mujoco.py)."""
 
+import os
+import signal
+
 import numpy as np
 
+from batchveh.engines import mujoco as mujoco_engine
 from batchveh.engines.mujoco import MujocoEngine
 from batchveh.stepping.batch import make_batch
 from batchveh.sweeping.spec import spec_from_mapping
@@ -10,7 +14,8 @@ from batchveh.sweeping.spec import spec_from_mapping
 
 def test_parts_in_worker_processes_give_the_threads_bits():
     """Each variant's statistics are its own, in float64 on the same machine code: processes or threads, every
-    column is bit-equal (a part's rows in another order, or another part's tyre state, would not be)."""
+    column is bit-equal (a part's rows in another order, or another part's tyre state, would not be); a pool
+    with a dead worker gives way to threads."""
     spec = spec_from_mapping(
         {
             "name": "t",
@@ -39,3 +44,11 @@ def test_parts_in_worker_processes_give_the_threads_bits():
     for k in a:
         np.testing.assert_array_equal(a[k], b[k], err_msg=k)
     assert np.ptp(a["drive_sum_mean"]) > 10.0  # the slopes differ: rows out of order would show
+
+    # a worker killed (the out-of-memory killer, say): that chunk runs in threads, the broken pool is dropped
+    pool = mujoco_engine._POOL["pool"]
+    os.kill(next(iter(pool._processes)), signal.SIGKILL)
+    c = processes.run(batch)
+    for k in a:
+        np.testing.assert_array_equal(a[k], c[k], err_msg=k)
+    assert mujoco_engine._POOL.get("pool") is not pool

@@ -46,7 +46,7 @@ def wheel_params(radius, width, so) -> dict:
     """soil.params' inputs for one wheel of radius and width in the soil `so` (a mapping of the
     soil's fields)."""
     p = {"wheel.width": width, "wheel.radius": radius, "wheel.mass": 1.0, "hub.mass": 0.0, "chassis.mass": 0.0}
-    p.update({"payload.mass": 0.0, "motors.armature": 0.0, "tyre.relaxation_length": 0.05, "gravity": 9.81})
+    p.update({"payload.mass": 0.0, "_drive_armature": 0.0, "tyre.relaxation_length": 0.05, "gravity": 9.81})
     p.update({f"soil.{k}": so[k] for k in ("n", "k_c", "k_phi", "c", "phi", "K", "c1", "c2", "c3")})
     return soil.params({k: np.array([x], float) for k, x in p.items()})
 

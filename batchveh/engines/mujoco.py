@@ -10,15 +10,16 @@ qvel or qacc: MuJoCo would reset it) stops stepping in `rollout`; it is reported
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import copy
 import os
+import sys
 from collections.abc import Iterator
 from functools import partial
 from typing import Any
 
 import jax
-import jax.numpy as jnp
 import mujoco
 import numpy as np
 
@@ -37,9 +38,10 @@ TILE = 256  # variants per fold call (see MujocoEngine.run)
 MIN_PART = 64  # variants: a smaller chunk runs as one part (MujocoEngine.parts)
 # parts from which a chunk's parts run in worker processes, not threads: each part's Python between MuJoCo's
 # steps (the wheel-ground step's call, the records) holds the GIL, and with 15 parts on 16 cores the threads
-# queued on it (benchmarks/results/h200-cpu16-overhead.json: 0.74x raw MuJoCo on the rigid contact, 9.7 of
-# 16 cores busy); on 2 cores two threads run as fast (MujocoEngine.processes)
+# queued on it (0.74x raw MuJoCo on the rigid contact, 9.7 of 16 cores busy: benchmarks/results/archive.json,
+# h200-cpu16-overhead-threads.json; processes: h100-cpu16-overhead.json); on 2 cores two threads ran as fast
 PROCESS_PARTS = 4
+MAX_PROCESSES = 32  # worker processes at most (each holds its own JAX runtime, about 0.4 GB)
 # model fields mujoco.batch shares between all simulations (asset data): a chunk runs one batch per value
 SHARED_ASSETS = ("hfield_data",)
 # warnings that mean the simulation's state is no longer valid
@@ -100,7 +102,8 @@ class MujocoEngine:
     ):
         self.scenario, self.cfg, self.chunk_size, self.block = scenario, cfg, chunk_size, block
         self.nthread = nthread or default_threads()
-        self.processes = processes  # parts in worker processes: None, from PROCESS_PARTS parts on
+        # parts in worker processes: None is from PROCESS_PARTS parts on, where a spawned process is safe (below)
+        self.processes = processes
         self.warnings: list[str] = []  # MuJoCo's messages, first few of the sweep
         # controls (n, block, nu) for a block of steps of every variant, computed by JAX
         self._ctrl = jax.jit(jax.vmap(control_schedule(scenario), in_axes=(0, None)))
@@ -144,9 +147,8 @@ class MujocoEngine:
             else:
                 edges = np.linspace(0, batch.n, parts + 1).astype(int)
                 pieces = [_rows(batch, slice(lo, hi)) for lo, hi in zip(edges[:-1], edges[1:], strict=True)]
-                if self.processes if self.processes is not None else parts >= PROCESS_PARTS:
-                    pool = _process_pool(parts)
-                    done = list(pool.map(partial(_run_part_alone, self.scenario, self.cfg, self.block), pieces))
+                done = self._in_processes(pieces) if self._use_processes(parts) else None
+                if done is not None:
                     cols = [c for c, _ in done]
                     messages.extend(m for _, found in done for m in found)
                 else:
@@ -155,6 +157,26 @@ class MujocoEngine:
                 out = {k: np.concatenate([c[k] for c in cols]) for k in cols[0]}
         self.warnings.extend(messages[: max(0, 5 - len(self.warnings))])
         return out
+
+    def _use_processes(self, parts: int) -> bool:
+        """The engine's `processes`, else: from PROCESS_PARTS parts on, where BATCHVEH_CPU_PROCESSES is 1 (a
+        script that guards its main, as benchmarks/cpu_overhead.py) or, unset, where spawning is safe."""
+        if self.processes is not None:
+            return self.processes
+        wanted = os.environ.get("BATCHVEH_CPU_PROCESSES", "")
+        return parts >= PROCESS_PARTS and wanted != "0" and (wanted == "1" or _spawn_safe())
+
+    def _in_processes(self, pieces: list[VariantBatch]) -> list | None:
+        """Each piece's (columns, MuJoCo's warnings) from the worker processes, or None where the pool broke (a
+        worker killed, say, or one that could not start): the pool is dropped and the chunk runs in threads."""
+        from concurrent.futures.process import BrokenProcessPool
+
+        pool = _process_pool(min(self.nthread, MAX_PROCESSES))
+        try:
+            return list(pool.map(partial(_run_part_alone, self.scenario, self.cfg, self.block), pieces))
+        except BrokenProcessPool:
+            _drop_pool()
+            return None
 
     def parts(self, n: int, applied: bool) -> int:
         """Parts a chunk of n variants runs as: one per thread where a wheel-ground model steps between
@@ -214,12 +236,12 @@ class MujocoEngine:
                 # times padded to one length (one compiled shape); the schedule is element-wise, so
                 # the padding changes none of the other values
                 t = np.append(steps, np.full(longest - len(steps), steps[-1])) * dt
-                ctrl = np.asarray(self._ctrl(params, jnp.asarray(t, jnp.float64)), np.float64)[:, : len(steps)]
+                ctrl = np.asarray(self._ctrl(params, np.asarray(t, np.float64)), np.float64)[:, : len(steps)]
                 sim = ctrl
                 if lay.dcmotor:  # each motor's setpoints; the drive angles carried from block to block
                     sim, theta[:] = dc_schedule(ctrl, theta, ratios, dt)
                 if self._forces is not None:  # the rollout's inputs: ctrl, then xfrc_applied
-                    xfrc = np.asarray(self._forces(params, body_mass, jnp.asarray(t, jnp.float64)), np.float64)
+                    xfrc = np.asarray(self._forces(params, body_mass, np.asarray(t, np.float64)), np.float64)
                     sim = np.concatenate([sim, xfrc[:, : len(steps)].reshape(*sim.shape[:2], -1)], axis=-1)
             # the simulation's inputs, and the scenario's controls (the statistics' reference)
             return steps, (np.ascontiguousarray(sim), ctrl)
@@ -303,18 +325,49 @@ class MujocoEngine:
         return out
 
 
-_POOLS: dict[int, Any] = {}  # worker processes by count, kept for the process's life (their imports and compiles)
+_POOL: dict[str, Any] = {}  # the worker processes, kept for the process's life (their imports and compiles)
 _ALONE: dict[bytes, MujocoEngine] = {}  # in a worker process: its engine per (scenario, statistics, block)
 
 
+def _spawn_safe() -> bool:
+    """Whether worker processes may be started: a spawned process imports the parent's main script again, which
+    is safe for batchveh's own command lines (python -m batchveh.sweep) and where there is no script (a
+    notebook, a REPL), but would run an unguarded user script a second time; there the parts stay in threads
+    unless the engine is asked for processes."""
+    main = sys.modules.get("__main__")
+    spec = getattr(main, "__spec__", None)
+    return getattr(main, "__file__", None) is None or (spec is not None and spec.name.startswith("batchveh."))
+
+
 def _process_pool(workers: int):
-    """`workers` worker processes (started fresh, not forked: JAX's threads do not survive a fork), made once."""
-    if workers not in _POOLS:
+    """The worker processes, at least `workers` of them (started fresh, not forked: JAX's threads do not survive
+    a fork); made once, grown by replacing it."""
+    pool = _POOL.get("pool")
+    if pool is None or _POOL["workers"] < workers:
         import multiprocessing
         from concurrent.futures import ProcessPoolExecutor
 
-        _POOLS[workers] = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"))
-    return _POOLS[workers]
+        _drop_pool()
+        pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"), initializer=_worker_start)
+        _POOL.update(pool=pool, workers=workers)
+    return pool
+
+
+def _drop_pool() -> None:
+    pool = _POOL.pop("pool", None)
+    _POOL.pop("workers", None)
+    if pool is not None:
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
+# the pool goes before the interpreter's teardown, while the modules its clean-up needs are still there
+atexit.register(_drop_pool)
+
+
+def _worker_start() -> None:
+    """A worker process's JAX on the CPU alone: on a GPU host it would otherwise start the GPU backend (and
+    reserve its memory) in every worker. The worker is this engine's own process: its settings are its own."""
+    jax.config.update("jax_platforms", "cpu")
 
 
 def _run_part_alone(scenario: Scenario, cfg: stats.StatsConfig, block: int, batch: VariantBatch):

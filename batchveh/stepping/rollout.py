@@ -21,7 +21,7 @@ import mujoco
 import numpy as np
 
 from batchveh.model import wheels
-from batchveh.model.indexing import take
+from batchveh.model.indexing import place, take
 from batchveh.model.missions import body_forces_fn
 from batchveh.model.motors import dc_controls, dc_schedule
 from batchveh.model.scenarios import Scenario, control_schedule, controls_fn
@@ -106,7 +106,7 @@ def wrap_drive_angles(d: mjx.Data, theta, lay: Layout):
     controller's input, is unchanged; a wheel's shape is the same a turn on. No statistic reads a drive angle."""
     q = take(d.qpos, lay.motor_qpos[:4])
     shift = (jnp.round(q / (2 * jnp.pi)) * (2 * jnp.pi)).astype(q.dtype)
-    return d.replace(qpos=d.qpos.at[..., lay.motor_qpos[:4]].add(-shift)), theta - shift
+    return d.replace(qpos=d.qpos - place(shift, lay.motor_qpos[:4], d.qpos.shape[-1], axis=-1)), theta - shift
 
 
 def tyre_step(d: mjx.Data, ts, tp, lay: Layout, dt):

@@ -199,7 +199,7 @@ def main():
             "hub.mass": 0.0,
             "chassis.mass": 0.0,
             "payload.mass": 0.0,
-            "motors.armature": 0.0,
+            "_drive_armature": 0.0,
             "tyre.relaxation_length": 0.05,
             "gravity": 9.81,
             **{f"soil.{a}": v for a, v in so.items()},
