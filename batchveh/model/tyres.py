@@ -62,6 +62,9 @@ STABLE_OMEGA_DT = 0.8
 ROLL_ENGAGE = 1e-3
 # below this normal force a wheel is off the ground, N
 N_MIN = 1e-6
+# the derived parameter holding each variant's drive-joint armature, kg m^2 (stepping.batch.drive_armature):
+# the rim mass of this tyre's and the soil's stability floor reads it
+DRIVE_ARMATURE = "_drive_armature"
 
 
 @dataclass(frozen=True)
@@ -125,7 +128,7 @@ def params(p: Mapping[str, Any], xp=np) -> dict[str, Any]:
         # the lightest mass the tyre force meets at the rim: the wheel's spin inertia with the drive
         # joint's armature (the servo's, or a dcmotor's rotor J N^2), over r^2 (a towing wheel has no
         # servo to hold it)
-        "rim_mass": col(p["wheel.mass"]) / 2 + col(p["_drive_armature"]) / col(p["wheel.radius"]) ** 2,
+        "rim_mass": col(p["wheel.mass"]) / 2 + col(p[DRIVE_ARMATURE]) / col(p["wheel.radius"]) ** 2,
     }
 
 

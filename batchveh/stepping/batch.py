@@ -45,6 +45,7 @@ from batchveh.model.params import (
 )
 from batchveh.model.scenarios import Scenario, gravity_vector
 from batchveh.model.soil import check_ground
+from batchveh.model.tyres import DRIVE_ARMATURE
 from batchveh.model.vehicle import Vehicle, build_model, layout, rolling_resistance_torque
 from batchveh.stepping import fields as structure
 
@@ -221,11 +222,6 @@ def make_batch(
         fields["dof_frictionloss"] = _rolling(model, params, n)
     params[DRIVE_ARMATURE] = drive_armature(model, fields, n)
     return VariantBatch(model=model, fields=fields, params=params, n=n)
-
-
-# each variant's drive-joint armature (kg m^2), a derived parameter: the slip tyre's and the soil's
-# stability floor reads it (the lightest mass their force meets at the rim)
-DRIVE_ARMATURE = "_drive_armature"
 
 
 def drive_armature(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], n: int) -> np.ndarray:
