@@ -4,11 +4,16 @@
     python -m batchveh.sweep sweeps/slope.yaml --backend mjx --limit 100 --out /tmp/s
     python -m batchveh.sweep sweeps/slope.yaml --resume      # after an interruption
     python -m batchveh.sweep sweeps/slope.yaml --executor ray --address HEAD:6379 --out s3://bucket/slope
+    python -m batchveh.sweep sweeps/slope.yaml --executor gpus   # one process per local GPU, no Ray
+
+The warp engine on 2 or more local GPUs uses them all by itself where a second GPU pays
+(batchveh/sweeping/gpus.py; BATCHVEH_GPU_PROCESSES=0: one GPU, in this process).
 
 Exit codes: 0 done (all ok or some flagged), 2 bad spec, arguments or files (one
 line), 3 results exist (give --resume or --overwrite) or another sweep is writing
-there, 4 partial: some chunks kept failing on the Ray workers (named; the others
-are written, --resume retries the rest), 130 interrupted (finished chunks kept).
+there, 4 partial: some chunks kept failing on the Ray workers or worker processes
+(named; the others are written, --resume retries the rest), 130 interrupted
+(finished chunks kept).
 """
 
 from __future__ import annotations
@@ -32,6 +37,7 @@ from batchveh.sweeping.spec import MAX_VARIANTS, SweepSpec, load_spec, saltelli_
 
 if TYPE_CHECKING:
     from batchveh.sweeping.cluster import RayExecutor
+    from batchveh.sweeping.gpus import GpuProcesses
 
 START_NOTE_S = 2.0  # a sweep's engine start longer than this is named in a line
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_PARTIAL, EXIT_INTERRUPTED = 0, 2, 3, 4, 130
@@ -186,14 +192,15 @@ def run_sweep(
     max_variants: int = MAX_VARIANTS,
     progress: bool = True,
     report: Callable[[str], None] | None = None,
-    executor: InProcess | RayExecutor | None = None,
+    executor: InProcess | RayExecutor | GpuProcesses | None = None,
 ) -> dict[str, Any]:
     """Run `spec`, writing part files under `out` (a local path or a URI pyarrow.fs understands);
     return a summary dict.
 
     `executor`: None runs the chunks in this process; a `batchveh.sweeping.cluster.RayExecutor` runs them
-    on Ray workers, and chunks that kept failing there are named in the summary's "failed"
-    ({chunk: why}) while the others are written. Raises FileExistsError where results exist and
+    on Ray workers, a `batchveh.sweeping.gpus.GpuProcesses` here and in one process per other local GPU,
+    and chunks that kept failing there are named in the summary's "failed" ({chunk: why}) while the
+    others are written. Raises FileExistsError where results exist and
     neither resume nor overwrite is given, results.Locked where another sweep writes there,
     ConfigError for a bad spec or setting. `report` receives notes for the user (damaged parts
     that run again, chunks retried)."""
@@ -383,7 +390,7 @@ def main(argv: list[str] | None = None) -> int:
         prog="python -m batchveh.sweep",
         description=__doc__.split("\n\n")[0],
         epilog="Exit codes: 0 done, 2 bad spec, argument or file, 3 results exist or another sweep writes "
-        "there, 4 partial (with --executor ray: chunks that kept failing are named, the others are written; "
+        "there, 4 partial (with --executor ray or gpus: chunks that kept failing are named, the others are written; "
         "--resume runs the rest), 130 interrupted. The spec format: docs/user-guide.md.",
     )
     parser.add_argument("spec", help="sweep YAML, e.g. sweeps/slope.yaml")
@@ -413,10 +420,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--plots", action="store_true", help="also write envelope/heatmap PNGs into the results")
     parser.add_argument(
         "--executor",
-        choices=("local", "ray"),
+        choices=("local", "ray", "gpus"),
         default="local",
-        help="local: the chunks run in this process (default); ray: on Ray workers, one per GPU or else per "
-        "CPU, which write the parts themselves (pip install -e '.[ray]')",
+        help="local: the chunks run in this process (default; the warp engine on 2 or more local GPUs uses "
+        "gpus where a second GPU pays, unless BATCHVEH_GPU_PROCESSES=0); ray: on Ray workers, one per GPU or "
+        "else per CPU, which write the parts themselves (pip install -e '.[ray]'); gpus: one process per local "
+        "GPU, this one on the first, no Ray",
     )
     parser.add_argument(
         "--address",
@@ -437,7 +446,8 @@ def main(argv: list[str] | None = None) -> int:
         enable_compile_cache()
         from batchveh.engines import resolve_backend
 
-        if resolve_backend(args.backend or spec.backend) == "warp" and args.executor == "local":
+        backend = resolve_backend(args.backend or spec.backend)
+        if backend == "warp" and args.executor != "ray":
             init_warp_without_cuda()
         executor = None
         if args.executor == "ray":
@@ -445,6 +455,15 @@ def main(argv: list[str] | None = None) -> int:
 
             started_ray = cluster.connect(args.address)
             executor = cluster.RayExecutor()
+        elif args.executor == "gpus":
+            from batchveh.sweeping.gpus import GpuProcesses
+
+            executor = GpuProcesses()
+        elif backend == "warp":  # every local GPU where a second one pays
+            from batchveh.sweeping import gpus
+
+            n = count_variants(spec, args.limit, args.max_variants)
+            executor = gpus.automatic(spec, backend, n, args.chunk_size)
         s = run_sweep(
             spec,
             out=args.out,

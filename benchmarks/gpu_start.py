@@ -13,9 +13,10 @@ Four ways of starting `python -m batchveh.sweep SPEC`, alternating, each a fresh
 
 With --fresh, the first run on a fresh machine instead (issue 32): each way gets empty caches of its own
 (Warp's kernels, the CUDA driver's, JAX's programs: WARP_CACHE_PATH, CUDA_CACHE_PATH, BATCHVEH_CACHE), then a
-second, warm run on them. Ways: `prebuild` (the warp engine builds MuJoCo Warp's per-file modules on every
-core while it prepares, the default) and `serial` (BATCHVEH_WARP_PREBUILD=0: each module builds at its first
-launch). Each first run also records when each kernel module landed in Warp's cache (s after the start).
+second, warm run on them. Ways: `ahead` (worker processes build the vehicle's MuJoCo Warp kernels while the
+engine's first chunk compiles, the default: batchveh/engines/warp_build.py) and `serial`
+(BATCHVEH_WARP_PREBUILD=0: each module builds at its first launch). Each first run also records when each
+kernel module landed in Warp's cache (s after the start), and what each worker's part took.
 Results: benchmarks/results/h200-first-gpu-run.json.
 """
 
@@ -47,7 +48,7 @@ def main():
     ap.add_argument("spec")
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--out", required=True)
-    ap.add_argument("--fresh", action="store_true", help="first runs on empty caches, prebuild against serial")
+    ap.add_argument("--fresh", action="store_true", help="first runs on empty caches, the ahead build against serial")
     args = ap.parse_args()
     if args.fresh:
         return fresh(args)
@@ -119,7 +120,7 @@ def _landed(cache: Path, start: float) -> list[list]:
 
 
 def fresh(args) -> None:
-    ways = {"serial": {"BATCHVEH_WARP_PREBUILD": "0"}, "prebuild": {}}
+    ways = {"serial": {"BATCHVEH_WARP_PREBUILD": "0"}, "ahead": {}}
     runs = []
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(args.rounds):
@@ -130,11 +131,16 @@ def fresh(args) -> None:
                     "WARP_CACHE_PATH": str(caches / "warp"),
                     "CUDA_CACHE_PATH": str(caches / "cuda"),
                     "BATCHVEH_CACHE": str(caches / "batchveh"),
+                    "BATCHVEH_WARP_AHEAD_LOG": str(Path(tmp) / f"ahead-{name}-{r}.jsonl"),
                 }
                 for kind in ("first", "warm"):
                     row = {"way": name, "kind": kind, "round": r + 1, **_run(args.spec, Path(tmp) / "r", env)}
                     if kind == "first":
                         row["modules_landed_s"] = _landed(caches / "warp", row["start"])
+                    log = Path(env["BATCHVEH_WARP_AHEAD_LOG"])
+                    if log.exists():  # what each worker's part took (warp_build.AheadBuild.wait), this run's
+                        row["ahead"] = [json.loads(x) for x in log.read_text().splitlines()]
+                        log.unlink()
                     runs.append(row)
                     print(json.dumps({k: v for k, v in row.items() if k != "modules_landed_s"}), flush=True)
     summary = {

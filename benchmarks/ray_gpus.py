@@ -3,6 +3,8 @@
     python benchmarks/ray_gpus.py --backend mjx --size 262144 --out benchmarks/results/h200x2-ray-gpus.json
     python benchmarks/ray_gpus.py --backend mujoco --size 64          # the CPU, to see that it runs
     python benchmarks/ray_gpus.py --two-gpus OUTDIR --budget 570      # issue 33, on a host of two GPUs
+    python benchmarks/ray_gpus.py --gpu-processes OUTDIR --rounds-1m 2 --rounds-100k 2 --budget 570
+    python benchmarks/ray_gpus.py --gpu-processes /tmp/smoke --smoke   # the same on the CPU, to see that it runs
 
 --two-gpus (issue 33) runs the warp engine on benchmarks/slope_100k.yaml (10 s, slip tyre) through the
 CLI in fresh processes, in this order, each step only while the budget (s) lasts (--only names steps):
@@ -14,6 +16,17 @@ spread; 400,000 with --executor ray and a Ray worker killed (SIGKILL) 6 s into i
 each sweep: the process's wall, each part's landing, the steady rate between the first and the last
 part, and the executor's timeline (BATCHVEH_TIMELINE: Ray's start, the workers ready, each chunk where).
 Writes OUTDIR/<gpu>x2-ray-scaling.json and OUTDIR/<gpu>x2-warp-spread.json (<gpu>: h200 or h100).
+
+--gpu-processes (issue 33) measures `--executor gpus` (batchveh/sweeping/gpus.py: this process on GPU 0, one
+worker process on GPU 1, no Ray) through the CLI in fresh processes on benchmarks/slope_100k.yaml: a warm-up
+in-process (not timed), then --rounds-1m pairs of 1,000,000 variants in-process on one GPU
+(CUDA_VISIBLE_DEVICES=0) and with --executor gpus on two (CUDA_VISIBLE_DEVICES=0,1), the order swapped each
+round (a shared host drifts between runs), then --rounds-100k pairs of 100,000 with --executor gpus (one
+chunk: it runs in its own process) and --executor local, both GPUs visible. Prints a table: each sweep's
+process wall, the time before its first part landed, the median chunk's wall (the parts' chunk_wall_s:
+prepare and simulate, the compile in the first chunk of each process) and per 100,000 variants, and each
+pair's ratio. Writes OUTDIR/<gpu>x2-gpu-processes.json. --smoke: the same on the CPU with the mujoco
+engine and a few hundred variants, the two 'GPUs' then naming a CPU worker process of one MuJoCo thread.
 
 Writes one random sweep over sweeps/slope.yaml's ranges (slope, friction, speed; 5 s after the
 settle) and runs it with the CLI as a user would, alternating `--executor local` (mjx shards each
@@ -30,6 +43,7 @@ import argparse
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -81,7 +95,7 @@ def run(spec: Path, executor: str, backend: str, out: Path, steps: int) -> dict:
 
 
 SLOPE = ROOT / "benchmarks" / "slope_100k.yaml"
-ENV_KEYS = ("CUDA_VISIBLE_DEVICES", "BATCHVEH_RAY_ALONE", "BATCHVEH_RAY_DRIVER")  # recorded with each step
+ENV_KEYS = ("CUDA_VISIBLE_DEVICES", "BATCHVEH_RAY_ALONE", "BATCHVEH_RAY_DRIVER", "BATCHVEH_GPU_PROCESSES")
 
 
 def spec_of(folder: Path, n: int) -> Path:
@@ -204,6 +218,15 @@ def spread(a: Path, b: Path) -> dict:
     return {"variants": len(x), "status_equal_share": same_status, "worst_floored_max": worst, "columns": cols}
 
 
+def over_budget(res: dict, name: str, guess_s: float, left: float) -> bool:
+    """Whether step `name`, about `guess_s` s, does not fit the `left` s of the budget (noted in res["skipped"])."""
+    if left >= guess_s:
+        return False
+    res["skipped"].append(f"{name} (needs about {guess_s} s, {left:.0f} s left)")
+    print(f"skip {name}", flush=True)
+    return True
+
+
 def two_gpus(
     outdir: Path,
     budget: float,
@@ -234,10 +257,7 @@ def two_gpus(
     def step(name, guess_s, n, executor, args=(), env=None, kill=False):
         if only and name not in only and not name.startswith("warmup"):
             return None
-        left = budget - (time.time() - t_start)
-        if left < guess_s:
-            res["skipped"].append(f"{name} (needs about {guess_s} s, {left:.0f} s left)")
-            print(f"skip {name}", flush=True)
+        if over_budget(res, name, guess_s, budget - (time.time() - t_start)):
             return None
         n = max(1, int(n * scale))
         r = cli(spec_of(work, n), work / name, ["--executor", executor, *args], env, work, kill, backend)
@@ -283,6 +303,135 @@ def two_gpus(
     save()
 
 
+def chunk_summary(r: dict) -> dict:
+    """A sweep's chunks: how many, the median chunk's wall and the median per 100,000 variants (the parts'
+    chunk_wall_s), and where they ran (the executor's timeline; none in-process)."""
+    import statistics
+
+    parts = r.get("parts") or []
+    where: dict = {}
+    for e in r.get("timeline", []):
+        if e["event"] == "chunk end":
+            where[e["where"]] = where.get(e["where"], 0) + 1
+    if not parts:
+        return {"chunks": 0, "chunk_s": None, "s_per_100k": None, "where": where}
+    return {
+        "chunks": len(parts),
+        "chunk_s": round(statistics.median(p["chunk_wall_s"] for p in parts), 3),
+        "s_per_100k": round(statistics.median(p["chunk_wall_s"] / p["rows"] * 1e5 for p in parts), 3),
+        "where": where,
+    }
+
+
+def gpu_processes(
+    outdir: Path,
+    budget: float,
+    backend: str = "warp",
+    rounds_1m: int = 2,
+    rounds_100k: int = 1,
+    warmup_n: int = 100_000,
+    smoke: bool = False,
+    gpus_chunk: int | None = None,
+) -> dict:
+    """Issue 33: --executor gpus against one GPU in-process, alternated (see the docstring). `gpus_chunk`: the
+    1,000,000-variant gpus sweeps' --chunk-size (default: the executor's, shared_chunk)."""
+    import statistics
+
+    t_start = time.time()
+    scale = 1.0
+    args = {"local": [], "gpus": ["--chunk-size", str(gpus_chunk)] if gpus_chunk else []}
+    if smoke:  # the CPU: 200 and 20 variants, 8 chunks of the larger sweep so that the worker process gets some
+        backend, scale, warmup_n = "mujoco", 2e-4, 0
+        args = {"local": ["--chunk-size", "25"], "gpus": ["--chunk-size", "25"]}
+    prefix = "smoke" if smoke else default_label()
+    outdir.mkdir(parents=True, exist_ok=True)
+    path = outdir / f"{prefix}-gpu-processes.json"
+    res = {
+        "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+        "command": "python benchmarks/ray_gpus.py " + " ".join(sys.argv[1:]),
+        "machine": machine(),
+        "spec": "benchmarks/slope_100k.yaml (10 s, 2,100 steps with the settle; slip tyre), n set per step",
+        "backend": backend,
+        "steps": {},
+        "pairs": [],
+        "skipped": [],
+    }
+    work = Path(tempfile.mkdtemp(prefix="gpus33-"))
+    one = {"CUDA_VISIBLE_DEVICES": "0"}
+    two = {"CUDA_VISIBLE_DEVICES": "0,1"}
+
+    def step(name, guess_s, n, executor, env, args=()):
+        if over_budget(res, name, guess_s, budget - (time.time() - t_start)):
+            return None
+        n = max(1, int(n * scale))
+        r = cli(spec_of(work, n), work / name, ["--executor", executor, *args], env, work, backend=backend)
+        r = {"variants": n, "executor": executor, **r, **chunk_summary(r)}
+        res["steps"][name] = r
+        print(name, {k: r.get(k) for k in ("process_s", "first_part_s", "chunk_s", "where", "error")}, flush=True)
+        write_result(res, path)
+        shutil.rmtree(work / name, ignore_errors=True)  # 1,000,000 rows a sweep: the disk is not unlimited
+        return r
+
+    def pair(kind, r, a, b):
+        if not (a and b) or "error" in a or "error" in b:
+            return
+        res["pairs"].append(
+            {
+                "what": kind,
+                "round": r,
+                "gpus": b["_name"],
+                "local": a["_name"],
+                "process_ratio": round(b["process_s"] / a["process_s"], 4),
+                "sweep_ratio": round(b["sweep_wall_s"] / a["sweep_wall_s"], 4),
+            }
+        )
+        write_result(res, path)
+
+    if warmup_n:
+        step(f"warmup_{warmup_n}_local", 150, warmup_n, "local", one)
+    for r in range(1, rounds_1m + 1):
+        runs = [("local", f"1m_local_1gpu_{r}", one), ("gpus", f"1m_gpus_2gpu_{r}", two)]
+        got = {}
+        for executor, name, env in runs if r % 2 else runs[::-1]:
+            x = step(name, 160 if executor == "local" else 90, 1_000_000, executor, env, args[executor])
+            got[executor] = x and {**x, "_name": name}
+        pair("1m", r, got["local"], got["gpus"])
+    for r in range(1, rounds_100k + 1):
+        runs = [("gpus", f"100k_gpus_{r}"), ("local", f"100k_local_{r}")]
+        got = {}
+        for executor, name in runs if r % 2 else runs[::-1]:
+            x = step(name, 40, 100_000, executor, two)
+            got[executor] = x and {**x, "_name": name}
+        pair("100k", r, got["local"], got["gpus"])
+    for kind in ("1m", "100k"):
+        ratios = [p["process_ratio"] for p in res["pairs"] if p["what"] == kind]
+        if ratios:
+            res[f"median_process_ratio_{kind}"] = statistics.median(ratios)
+    res["total_s"] = round(time.time() - t_start, 1)
+    write_result(res, path)
+    print(
+        f"\n{'step':22} {'process s':>9} {'sweep s':>8} {'first part s':>12} {'chunks':>6} {'chunk s':>8} "
+        f"{'s/100k':>7}  where / device"
+    )
+    for name, x in res["steps"].items():
+        if "error" in x:
+            print(f"{name:22} error: {x['error'][:200]}")
+            continue
+        print(
+            f"{name:22} {x['process_s']:>9.1f} {x['sweep_wall_s']:>8.1f} {x['first_part_s']:>12.1f} "
+            f"{x['chunks']:>6} {x['chunk_s']:>8.2f} {x['s_per_100k']:>7.2f}  {x['where'] or x['device']}"
+        )
+    for p in res["pairs"]:
+        print(
+            f"{p['what']} round {p['round']}: {p['gpus']} / {p['local']}: process {p['process_ratio']:.3f}, "
+            f"sweep {p['sweep_ratio']:.3f}"
+        )
+    for kind in ("1m", "100k"):
+        if f"median_process_ratio_{kind}" in res:
+            print(f"{kind}: median process ratio gpus / local {res[f'median_process_ratio_{kind}']:.3f}")
+    return res
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--size", type=int, default=262144, help="variants (default 262,144: 131,072 per GPU on two)")
@@ -291,17 +440,58 @@ def main():
     ap.add_argument("--out", help="JSON file to write, e.g. benchmarks/results/h200x2-ray-gpus.json")
     ap.add_argument("--note", default="")
     ap.add_argument("--two-gpus", metavar="OUTDIR", help="issue 33's measurements (see the docstring)")
-    ap.add_argument("--budget", type=float, default=570.0, help="with --two-gpus: seconds in all")
+    ap.add_argument("--budget", type=float, default=570.0, help="with --two-gpus or --gpu-processes: seconds in all")
     ap.add_argument("--scale", type=float, default=1.0, help="with --two-gpus: times every size (a smoke test)")
     ap.add_argument("--only", help="with --two-gpus: the steps to run, by name, comma-separated (and the warm-up)")
-    ap.add_argument("--warmup-n", type=int, default=100_000, help="with --two-gpus: variants of the warm-up")
+    ap.add_argument(
+        "--warmup-n",
+        type=int,
+        default=100_000,
+        help="with --two-gpus or --gpu-processes: variants of the warm-up (0: none)",
+    )
     ap.add_argument(
         "--rounds-100k",
         type=int,
         default=1,
-        help="with --two-gpus: alternated pairs of 100k_ray / 100k_local (then _2, ...)",
+        help="with --two-gpus: alternated pairs of 100k_ray / 100k_local (then _2, ...); with --gpu-processes: "
+        "of 100k_gpus / 100k_local",
+    )
+    ap.add_argument(
+        "--gpu-processes",
+        metavar="OUTDIR",
+        help="issue 33: --executor gpus on two GPUs against one GPU in-process, alternated (see the docstring)",
+    )
+    ap.add_argument(
+        "--rounds-1m",
+        type=int,
+        default=2,
+        help="with --gpu-processes: alternated pairs of 1,000,000 variants, one GPU in-process / --executor gpus",
+    )
+    ap.add_argument(
+        "--smoke",
+        action="store_true",
+        help="with --gpu-processes: the CPU, the mujoco engine, a few hundred variants (to see that it runs)",
+    )
+    ap.add_argument(
+        "--gpus-chunk-size",
+        type=int,
+        help="with --gpu-processes: --chunk-size of the 1,000,000-variant --executor gpus sweeps (default: "
+        "the executor's own, 66,816 on two GPUs)",
     )
     args = ap.parse_args()
+    if args.gpu_processes:
+        backend = args.backend if args.backend != "mjx" else "warp"
+        gpu_processes(
+            Path(args.gpu_processes),
+            args.budget,
+            backend,
+            args.rounds_1m,
+            args.rounds_100k,
+            args.warmup_n,
+            args.smoke,
+            args.gpus_chunk_size,
+        )
+        return None
     if args.two_gpus:
         backend = args.backend if args.backend != "mjx" else "warp"
         only = args.only.split(",") if args.only else None

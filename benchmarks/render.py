@@ -171,16 +171,39 @@ def _motors(d: dict) -> str:
 
 
 def _gpu_start(d: dict) -> str:
-    """The first run on a fresh machine: the warp engine's prebuild against serial builds."""
-    s = d["summary_wall_s"]
+    """The first run on a fresh machine: the kernels built ahead against serial builds, one pair per call."""
+    calls = sorted({r["call"] for r in d["runs"]})
 
-    def span(k):
-        return f"{min(s[k]):.1f}-{max(s[k]):.1f} s"
+    def run(call, way, kind):
+        return next(r for r in d["runs"] if (r["call"], r["way"], r["kind"]) == (call, way, kind))
 
-    return (
-        f"first run on empty caches **{span('prebuild first')}** with the prebuild against "
-        f"{span('serial first')} serial; warm runs {span('prebuild warm')} / {span('serial warm')}"
-    )
+    def pair(c, kind):
+        ahead = run(c, "ahead", kind)
+        return f"{ahead['wall_s']:.1f} / {run(c, 'serial', kind)['wall_s']:.1f} s"
+
+    out = [f"{run(c, 'ahead', 'first')['card']} ({run(c, 'ahead', 'first')['code']} code)" for c in calls]
+    firsts = "; ".join(f"{o}: {pair(c, 'first')}" for o, c in zip(out, calls, strict=True))
+    warms = ", ".join(pair(c, "warm") for c in calls)
+    return f"first run on empty caches, built ahead / serial, one pair per call: **{firsts}**; warm runs {warms}"
+
+
+def _gpu_processes(*docs: dict) -> str:
+    """--executor gpus on two GPUs against one GPU in-process, per file (machine): the 1M pairs, the 100k pairs."""
+
+    def one(d):
+        cards = d["machine"]["gpus"][0].split(",")[0].removeprefix("NVIDIA ").replace(" 80GB HBM3", "")
+        big = [p for p in d["pairs"] if p["what"] == "1m" and d["steps"][p["gpus"]].get("process_s")]
+        small = [p for p in d["pairs"] if p["what"] == "100k"]
+        walls = "; ".join(
+            f"{d['steps'][p['gpus']]['process_s']:.1f} s against {d['steps'][p['local']]['process_s']:.1f} s, "
+            f"**{p['process_ratio']:.3f}x**"
+            for p in big
+        )
+        return f"two {cards}s: 1,000,000 x 10 s {walls}; 100,000 x 10 s (one chunk, in-process) " + ", ".join(
+            f"{p['process_ratio']:.2f}x" for p in small
+        )
+
+    return " | ".join(one(d) for d in docs)
 
 
 H200 = "one H200 (nvidia-h200 kind), 16 cores"
@@ -289,6 +312,14 @@ ROWS = [
         "`python benchmarks/ray_gpus.py --two-gpus OUT --only 400k_ray_worker_killed`",
     ),
     Row(
+        "Two GPUs without Ray: `--executor gpus` (one process per GPU; the default on a host with several) against "
+        "one GPU in-process (CUDA_VISIBLE_DEVICES=0), end to end, alternated pairs",
+        ["h200x2-gpu-processes.json", "h100x2-gpu-processes.json"],
+        _gpu_processes,
+        "two H200s; two H100s (32 cores)",
+        "`python benchmarks/ray_gpus.py --gpu-processes OUT --rounds-1m 1 --rounds-100k 2`",
+    ),
+    Row(
         "A small sweep on a two-GPU host: 100,000 x 10 s with --executor ray (below Ray's break-even it runs "
         "in-process) against in-process, alternated pairs",
         ["h100x2-ray-100k.json"],
@@ -367,11 +398,11 @@ ROWS = [
     ),
     Row(
         "The first GPU run on a fresh machine, `benchmarks/slope_100k.yaml` end to end (100,000 x 10 s), each way on "
-        "its own empty caches, then warm: Warp's per-file modules built on every core (prebuild) against at first "
-        "launch (serial)",
+        "its own empty caches, then warm: MuJoCo Warp's kernels built ahead in worker processes "
+        "(`engines/warp_build.py`) against each at its first launch (serial)",
         ["h200-first-gpu-run.json"],
         _gpu_start,
-        H200,
+        "one H200, then one H100 twice; 16 cores each",
         "`python benchmarks/gpu_start.py benchmarks/slope_100k.yaml --fresh --rounds 1`",
     ),
 ]

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+import yaml
 
 from batchveh.model.tyres import Tyre
 from batchveh.model.vehicle import Vehicle
@@ -18,6 +19,24 @@ SLOPE_SUM_RTOL = 5e-3
 def slope_torque(vehicle: Vehicle, slope_deg: float, g: float = 9.81) -> float:
     """Quasi-static four-wheel drive-torque sum on a slope: m g sin(slope) r, N m."""
     return vehicle.total_mass * g * np.sin(np.deg2rad(slope_deg)) * vehicle.wheel.radius
+
+
+def sweep_spec(tmp_path, name="r", **over):
+    """A small sweep's YAML in tmp_path: 8 variants (slope 0-15 deg x friction 0.3, 0.9) of 1 s on MuJoCo C, whose
+    float64 rows are the same on any executor, so the in-process sweep is the exact reference of a distributed
+    one; output tmp_path / name. `over` replaces top-level keys."""
+    raw = {
+        "name": name,
+        "scenario": "straight_line",
+        "fixed": {"total_time": 1.0, "ramp_time": 0.5},
+        "sweep": {"method": "grid", "params": {"slope_deg": [0, 5, 10, 15], "friction": [0.3, 0.9]}},
+        "backend": "mujoco",
+        "output": str(tmp_path / name),
+    }
+    raw.update(over)
+    path = tmp_path / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return path
 
 
 @pytest.fixture(scope="session")

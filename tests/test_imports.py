@@ -37,9 +37,9 @@ LAYERS = {
     "stepping": tuple(
         f"stepping.{m}" for m in ("", "fields", "batch", "rollout", "stats", "mission_stats", "motor_stats")
     ),
-    "engines": ("engines", "engines.common", "engines.mujoco", "engines.mjx", "engines.warp"),
+    "engines": ("engines", "engines.common", "engines.mujoco", "engines.mjx", "engines.warp_build", "engines.warp"),
     # how many variants run, where, and where the results go
-    "sweeping": tuple(f"sweeping.{m}" for m in ("", "storage", "spec", "results", "chunks", "cluster")),
+    "sweeping": tuple(f"sweeping.{m}" for m in ("", "storage", "spec", "results", "chunks", "cluster", "gpus")),
     "analysis": tuple(f"analysis.{m}" for m in ("", "motors", "plot", "sensitivity")),
     "face": ("",),  # batchveh/__init__.py: the public names
     "cli": ("sweep", "run", "render", "sensitivity"),

@@ -21,7 +21,7 @@ from collections import Counter
 import pandas as pd
 import pytest
 import ray
-import yaml
+from conftest import sweep_spec as _spec
 
 import batchveh
 from batchveh.sweep import main, run_sweep
@@ -35,21 +35,6 @@ BIG = {
     "fixed": {"total_time": 5.0, "ramp_time": 0.5},
     "sweep": {"method": "grid", "params": {"slope_deg": [0, 2, 4, 6, 8, 10, 12, 14], "friction": [0.3, 0.9] * 4}},
 }
-
-
-def _spec(tmp_path, name="r", **over):
-    raw = {
-        "name": name,
-        "scenario": "straight_line",
-        "fixed": {"total_time": 1.0, "ramp_time": 0.5},
-        "sweep": {"method": "grid", "params": {"slope_deg": [0, 5, 10, 15], "friction": [0.3, 0.9]}},
-        "backend": "mujoco",
-        "output": str(tmp_path / name),
-    }
-    raw.update(over)
-    path = tmp_path / f"{name}.yaml"
-    path.write_text(yaml.safe_dump(raw, sort_keys=False))
-    return path
 
 
 def test_one_chunk_on_a_shared_host_runs_here_without_ray(tmp_path):

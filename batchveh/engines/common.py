@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import jax
 import numpy as np
 
@@ -75,3 +77,12 @@ def pad(batch: VariantBatch, size: int) -> VariantBatch:
     return VariantBatch(
         batch.model, {k: rep(v) for k, v in batch.fields.items()}, {k: rep(v) for k, v in batch.params.items()}, size
     )
+
+
+def spawn_safe() -> bool:
+    """Whether worker processes may be started: a spawned process imports the parent's main script again, which
+    is safe for batchveh's own command lines (python -m batchveh.sweep) and where there is no script (a
+    notebook, a REPL), but would run an unguarded user script a second time."""
+    main = sys.modules.get("__main__")
+    spec = getattr(main, "__spec__", None)
+    return getattr(main, "__file__", None) is None or (spec is not None and spec.name.startswith("batchveh."))

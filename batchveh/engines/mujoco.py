@@ -14,7 +14,6 @@ import atexit
 import contextlib
 import copy
 import os
-import sys
 from collections.abc import Iterator
 from functools import partial
 from typing import Any
@@ -23,6 +22,7 @@ import jax
 import mujoco
 import numpy as np
 
+from batchveh.engines.common import spawn_safe
 from batchveh.model.missions import body_forces_fn
 from batchveh.model.motors import dc_schedule
 from batchveh.model.scenarios import Scenario, control_schedule
@@ -164,7 +164,7 @@ class MujocoEngine:
         if self.processes is not None:
             return self.processes
         wanted = os.environ.get("BATCHVEH_CPU_PROCESSES", "")
-        return parts >= PROCESS_PARTS and wanted != "0" and (wanted == "1" or _spawn_safe())
+        return parts >= PROCESS_PARTS and wanted != "0" and (wanted == "1" or spawn_safe())
 
     def _in_processes(self, pieces: list[VariantBatch]) -> list | None:
         """Each piece's (columns, MuJoCo's warnings) from the worker processes, or None where the pool broke (a
@@ -327,16 +327,6 @@ class MujocoEngine:
 
 _POOL: dict[str, Any] = {}  # the worker processes, kept for the process's life (their imports and compiles)
 _ALONE: dict[bytes, MujocoEngine] = {}  # in a worker process: its engine per (scenario, statistics, block)
-
-
-def _spawn_safe() -> bool:
-    """Whether worker processes may be started: a spawned process imports the parent's main script again, which
-    is safe for batchveh's own command lines (python -m batchveh.sweep) and where there is no script (a
-    notebook, a REPL), but would run an unguarded user script a second time; there the parts stay in threads
-    unless the engine is asked for processes."""
-    main = sys.modules.get("__main__")
-    spec = getattr(main, "__spec__", None)
-    return getattr(main, "__file__", None) is None or (spec is not None and spec.name.startswith("batchveh."))
 
 
 def _process_pool(workers: int):

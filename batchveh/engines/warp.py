@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import os
 import threading
+from typing import Any
 
 import jax
 import mujoco
@@ -30,7 +31,7 @@ from batchveh.config import ConfigError
 from batchveh.engines.common import warp_installed
 from batchveh.engines.mjx import MjxEngine
 from batchveh.model.vehicle import layout
-from batchveh.stepping.batch import VariantBatch, import_mjx
+from batchveh.stepping.batch import SAMEFRAME, WARP_UNREAD, VariantBatch, import_mjx
 from batchveh.stepping.rollout import mjx_stats
 
 # contacts a world may hold: 2 per cylinder wheel (MuJoCo Warp), 1 per sphere wheel, and room for a
@@ -45,27 +46,6 @@ def constraint_rows(m: mujoco.MjModel, contacts: int) -> int:
     per_contact = condim if m.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC else max(1, 2 * (condim - 1))
     limits = int(np.count_nonzero(m.jnt_limited)) * 2
     return int(np.count_nonzero(m.dof_frictionloss)) + limits + 6 * m.neq + contacts * per_contact
-
-
-MUJOCO_WARP = "mujoco.mjx.third_party.mujoco_warp._src"  # MuJoCo Warp's kernels, as MJX 3.17 vendors them
-
-
-def prebuild(device: str) -> None:
-    """Build (or load from Warp's kernel cache) MuJoCo Warp's per-file kernel modules on `device`, all at
-    once on every CPU core, while the engine prepares its first chunk. Warp otherwise builds each module
-    at its first launch, one after another (about 50 s on a fresh machine, issue 32); kernels that
-    MuJoCo Warp makes per model ("unique" modules) still build at their first launch. BATCHVEH_WARP_PREBUILD=0
-    turns it off (benchmarks/gpu_start.py compares both)."""
-    import importlib
-
-    import warp
-
-    try:
-        importlib.import_module(MUJOCO_WARP.rsplit(".", 1)[0])  # registers its modules with Warp
-        with warp.ScopedLogLevel(warp.LOG_ERROR):
-            warp.load_module(MUJOCO_WARP, device=device, recursive=True, max_workers=os.cpu_count() or 1)
-    except Exception:  # noqa: BLE001 - a head start only: the first launch builds whatever is missing, and says why
-        pass
 
 
 class WarpEngine(MjxEngine):
@@ -92,8 +72,14 @@ class WarpEngine(MjxEngine):
         # steps per iteration of the scan's loop: 2, 3 and 5 ran no faster than 1 on one H200 (11.06-11.11 s for
         # 100,000 variants x 2,100 steps, benchmarks/results/archive.json: h200-warp-unroll.json) and compile longer
         self.scan_unroll = 1
-        if self.devices[0].platform == "gpu" and os.environ.get("BATCHVEH_WARP_PREBUILD", "1") != "0":
-            threading.Thread(target=prebuild, args=(f"cuda:{self.devices[0].id}",), daemon=True).start()
+        self.ahead: dict[str, Any] = {}  # what building the kernels ahead took (warp_build.AheadBuild.wait)
+        if self.devices[0].platform == "gpu":
+            from batchveh.engines import warp_build
+
+            # a machine that never built a vehicle's kernels: the workers start now, and import while the
+            # engine prepares its first chunk
+            if os.environ.get("BATCHVEH_WARP_PREBUILD", "1") != "0" and warp_build.may_spawn() and warp_build.cold():
+                warp_build.start_workers(f"cuda:{self.devices[0].id}")
 
     @property
     def implementation(self) -> str:
@@ -107,6 +93,38 @@ class WarpEngine(MjxEngine):
         import warp
 
         return warp.ScopedLogLevel(warp.LOG_ERROR)
+
+    def _compiled(self, batch: VariantBatch, mx, axes, params):
+        """The chunk's program; on a GPU whose Warp kernel cache lacks this vehicle's kernels, worker processes
+        build them while JAX compiles (`warp_build`), and the first launch waits for them."""
+        ahead = None
+        first = (tuple(sorted(batch.fields)), batch.n) not in self._fn
+        if first and self.devices[0].platform == "gpu":
+            from batchveh.engines import warp_build
+
+            batched = {k: batch.n for k in batch.fields if k not in WARP_UNREAD and k not in SAMEFRAME}
+            sizes = (constraint_rows(batch.model, self.contacts_per_world), self.contacts_per_world)
+            device = f"cuda:{self.devices[0].id}"
+            if warp_build.wanted(batch.model, batched, *sizes):
+                try:
+                    ahead = warp_build.AheadBuild(batch.model, batched, *sizes, device=device)
+                except Exception:  # noqa: BLE001 - a head start only: the first launch builds what is missing
+                    ahead = None
+            elif os.environ.get("BATCHVEH_WARP_PREBUILD", "1") != "0" and not warp_build.may_spawn():
+                threading.Thread(target=warp_build.load_file_modules, args=(device,), daemon=True).start()
+        try:
+            return super()._compiled(batch, mx, axes, params)
+        finally:
+            if ahead is not None:
+                self.ahead = ahead.wait()
+                self._built = ahead
+
+    def run(self, batch: VariantBatch) -> dict[str, np.ndarray]:
+        out = super().run(batch)
+        built, self._built = getattr(self, "_built", None), None
+        if built is not None:  # the first chunk ran: this vehicle's kernels are all in Warp's cache now
+            built.done()
+        return out
 
     def _program(self, batch: VariantBatch, mx, axes):
         mjx = import_mjx()

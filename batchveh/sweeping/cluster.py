@@ -80,6 +80,26 @@ GPU_RATE = {"warp": 1.9e7, "mjx": 2.9e6}
 _local = {"wanted": False}  # connect(None) asked for a local Ray instance, started by the executor
 
 
+class Timeline(list):
+    """An executor's events, each a dict with its time `t` (time.time()) and `event`; with BATCHVEH_TIMELINE=PATH
+    in the environment the whole list is written to PATH as JSON at each event (atomically: a reader sees the
+    old list or the new one)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.path = os.environ.get("BATCHVEH_TIMELINE")
+        self._lock = threading.Lock()
+
+    def add(self, what: str, **info: Any) -> None:
+        with self._lock:
+            self.append({"t": time.time(), "event": what, **info})
+            if self.path:
+                tmp = f"{self.path}.tmp"
+                with open(tmp, "w") as f:
+                    json.dump(self, f)
+                os.replace(tmp, self.path)
+
+
 class ChunkWorker:
     """A Ray actor's state: the engine, built once, and the result folder it writes parts into.
 
@@ -205,16 +225,26 @@ def local_gpus() -> list[str]:
     return sorted((m.group(1) for m in map(re.compile(r"nvidia(\d+)$").match, names) if m), key=int)
 
 
-def alone_reason(n: int, steps: int, backend: str, gpus: int, chunk: int | None = None) -> str | None:
+def alone_reason(
+    n: int,
+    steps: int,
+    backend: str,
+    gpus: int,
+    chunk: int | None = None,
+    start_s: float = RAY_START_S,
+    starter: str = "Ray's start",
+) -> str | None:
     """Why a sweep of `n` variants x `steps` steps on `gpus` GPUs of this host should run in this process
-    without Ray (see RAY_START_S), or None where Ray's workers would finish it sooner."""
+    alone, or None where workers on the other GPUs would finish it sooner: one GPU, one chunk, or less than
+    2 x `start_s` of simulation on one GPU (`start_s`: what `starter` costs before a second GPU works;
+    RAY_START_S for Ray's workers)."""
     if gpus < 2:
         return "one GPU"
     if chunk and -(-n // chunk) < 2:
         return "one chunk"
     seconds = n * steps / GPU_RATE.get(backend, GPU_RATE["warp"])
-    if seconds < 2 * RAY_START_S:
-        return f"about {seconds:.0f} s of simulation on one GPU, less than Ray's start saves ({2 * RAY_START_S:.0f} s)"
+    if seconds < 2 * start_s:
+        return f"about {seconds:.0f} s of simulation on one GPU, less than {starter} saves ({2 * start_s:.0f} s)"
     return None
 
 
@@ -282,24 +312,15 @@ class RayExecutor:
         self.driver_works = driver_works
         self.actors: list[Any] = []
         self.workers_info: list[dict[str, Any]] = []
-        self.timeline: list[dict[str, Any]] = []
+        self.timeline = Timeline()
         self.runner = None  # this process's own ChunkRunner, where it works too
         self.folder: ResultFolder | None = None
         self.starting: dict[Any, Any] = {}  # describe ref -> actor, for workers still building their engines
         self.ready: list[Any] = []  # workers that have built their engines
         self.manifest: dict[str, Any] = {}
-        self._path = os.environ.get("BATCHVEH_TIMELINE")
-        self._event_lock = threading.Lock()
 
     def event(self, what: str, **info: Any) -> None:
-        """Note an event with its time; with BATCHVEH_TIMELINE set, the whole timeline is written out."""
-        with self._event_lock:
-            self.timeline.append({"t": time.time(), "event": what, **info})
-            if self._path:
-                tmp = f"{self._path}.tmp"
-                with open(tmp, "w") as f:
-                    json.dump(self.timeline, f)
-                os.replace(tmp, self._path)
+        self.timeline.add(what, **info)
 
     def start(
         self, spec: SweepSpec, backend: str, n: int, chunk_size: int | None, folder: ResultFolder

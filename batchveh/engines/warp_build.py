@@ -1,0 +1,291 @@
+"""MuJoCo Warp's kernels built ahead, in worker processes, the first time a vehicle runs on a machine.
+
+Warp builds a kernel module at its first launch. MuJoCo Warp's step launches some thirty-five modules:
+its per-file ones (smooth, forward, solver, ...) and about twenty-seven that it makes per model
+("unique": the broadphase, the contact Jacobian, two tile Cholesky solves linked against libmathdx).
+In one process they build one after another: Warp holds one code-generation lock per process, and
+the step launches them in order. On a fresh H200 that took about 30 of the 50 s of the first
+`benchmarks/slope_100k.yaml` run (benchmarks/results/h200-first-gpu-run.json), against 20 s warm.
+
+Here, while the engine's first chunk compiles, a pool of spawned processes runs parts of MuJoCo Warp's
+step for real on a one-world copy of the chunk's model, each part in its own process
+(`STAGES`), and loads the per-file modules the step uses (`FILE_MODULES`) spread over the others. Each
+module then lands in Warp's kernel cache (on disk) from whichever process built it first, and the
+engine's own first launch loads it from there. Nothing is assigned into Warp or MuJoCo Warp: the
+workers call MuJoCo Warp's public functions (`mujoco_warp.fwd_acceleration`, `solve`, ...) and
+`warp.load_module`. A module that no stage reaches still builds at its first launch, as before: what
+the engine computes does not change, only where its kernels were built.
+
+A marker in Warp's kernel cache (`batchveh-ahead-<key>`, keyed on MuJoCo's and Warp's versions, the
+model's structure and the chunk's batched fields) records that a vehicle's kernels were built, so a
+warm machine starts no workers; deleting Warp's cache (`python -c "import warp; warp.clear_kernel_cache()"`)
+deletes the marker with it. BATCHVEH_WARP_PREBUILD=0 turns the whole thing off
+(benchmarks/gpu_start.py --fresh compares both).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import pickle
+import time
+from concurrent.futures import Future
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from batchveh.engines.common import spawn_safe
+
+MUJOCO_WARP = "mujoco.mjx.third_party.mujoco_warp"
+# parts of the step, each run in a process of its own, longest first: the constraint solver (two
+# libmathdx tile Cholesky solves), the smooth acceleration's factor-solve of M (another), collision,
+# the constraint rows, passive forces. None of them launches the per-file modules' kernels that
+# another needs first (on one H100, a position stage that did waited 10 s for `smooth`)
+STAGES = ("solve", "fwd_acceleration", "collision", "make_constraint", "passive")
+# MuJoCo Warp's per-file modules that its step launches, the largest first (each also builds at a stage
+# that reaches it first); any other builds at its first launch, as before
+FILE_MODULES = (
+    f"{MUJOCO_WARP}._src.smooth",
+    f"{MUJOCO_WARP}._src.sensor",
+    f"{MUJOCO_WARP}._src.derivative",
+    f"{MUJOCO_WARP}._src.forward",
+    f"{MUJOCO_WARP}._src.passive",
+    f"{MUJOCO_WARP}._src.solver",
+    f"{MUJOCO_WARP}._src.constraint",
+    f"{MUJOCO_WARP}._src.support",
+)
+WAIT_S = 180.0  # the longest the engine waits for the workers before it launches (and builds what is left)
+SETTLE_STEPS = 100  # MuJoCo C steps before the copy: the wheels on the ground, so the solver iterates
+
+
+# batched fields whose leading size (the chunk's) is part of a kernel's key: MuJoCo Warp's broadphase is
+# made per shape of these; other batched fields key nothing by their size (checked for opt.gravity and
+# geom_friction: the same modules at 1 and 100,096 variants)
+SIZED = ("geom_aabb", "geom_rbound", "geom_margin", "geom_gap", "pair_margin", "pair_gap", "geom_dataid")
+
+
+def sized(batched: dict[str, int]) -> dict[str, int]:
+    """The batched fields with the leading size that keys MuJoCo Warp's kernels: the chunk's for SIZED, else 1."""
+    return {k: (n if k in SIZED else 1) for k, n in batched.items()}
+
+
+def key(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int) -> str:
+    """What decides which kernels MuJoCo Warp makes for a model: MuJoCo's and Warp's versions, the
+    model's sizes, types and options, the batched fields with their leading sizes, the constraint
+    and contact buffers (hashed)."""
+    import warp
+
+    opt = model.opt
+    parts = [
+        mujoco.__version__,
+        warp.__version__,
+        {k: getattr(model, k) for k in dir(model) if k.startswith("n") and isinstance(getattr(model, k), int)},
+        model.geom_type.tolist(),
+        model.geom_condim.tolist(),
+        model.geom_contype.tolist(),
+        model.geom_conaffinity.tolist(),
+        model.jnt_type.tolist(),
+        model.body_parentid.tolist(),
+        model.dof_parentid.tolist(),
+        model.actuator_trntype.tolist(),
+        model.actuator_dyntype.tolist(),
+        model.actuator_gaintype.tolist(),
+        model.actuator_biastype.tolist(),
+        model.sensor_type.tolist(),
+        [opt.timestep, opt.solver, opt.cone, opt.integrator, opt.jacobian, opt.iterations, opt.ls_iterations],
+        [opt.disableflags, opt.enableflags],
+        sorted(sized(batched).items()),
+        njmax,
+        naconmax,
+    ]
+    return hashlib.sha256(repr(parts).encode()).hexdigest()[:16]
+
+
+def marker(k: str) -> str:
+    """The marker file of key `k` in Warp's kernel cache."""
+    import warp
+
+    warp.init()
+    return os.path.join(warp.config.kernel_cache_dir, f"batchveh-ahead-{k}")
+
+
+_POOL: dict[str, Any] = {}  # the worker processes, started ahead (`start_workers`) or by AheadBuild
+
+
+def _workers():
+    """The pool of worker processes: one per task, at most a core each but one (left to JAX's compile)."""
+    if "pool" not in _POOL:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        from batchveh.engines.mujoco import cpus
+
+        n = max(1, min(len(STAGES) + len(FILE_MODULES), cpus() - 1))
+        _POOL["n"] = n
+        _POOL["pool"] = ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn"))
+    return _POOL["pool"]
+
+
+def cold() -> bool:
+    """Whether no vehicle's kernels were built ahead on this machine yet (no marker in Warp's cache), so
+    that the workers are worth starting before the engine knows its model."""
+    import glob
+
+    return not glob.glob(marker("*"))
+
+
+def start_workers(device: str) -> None:
+    """Start the worker processes now and let each import MuJoCo Warp and open `device` (about 5 s on an
+    H100 host), so that they are ready when the engine's first chunk has its model (AheadBuild)."""
+    pool = _workers()
+    for _ in range(_POOL["n"]):
+        pool.submit(_warm, device)
+
+
+class AheadBuild:
+    """The workers building one model's kernels; `wait` for them, then `done` once the engine's
+    first chunk has run (writes the marker)."""
+
+    def __init__(self, model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int, device: str):
+        self.marker = marker(key(model, batched, njmax, naconmax))
+        self.start = time.perf_counter()
+        payload = pickle.dumps((model, sized(batched), njmax, naconmax))
+        tasks = [("stage", s) for s in STAGES] + [("module", m) for m in FILE_MODULES]
+        self.pool = _workers()
+        self.futures: list[Future] = [self.pool.submit(_build, kind, name, payload, device) for kind, name in tasks]
+
+    def wait(self, timeout: float = WAIT_S) -> dict[str, Any]:
+        """Wait for the workers (at most `timeout` s), then let them go; returns what each took (s) or
+        why it failed. A failed or late part only means its modules build at their first launch."""
+        from concurrent.futures import wait
+
+        done, _ = wait(self.futures, timeout=timeout)
+        report = {}
+        for f in self.futures:
+            if f not in done:
+                report[f"task {self.futures.index(f)}"] = "not done in time"
+                continue
+            try:
+                name, seconds = f.result()
+                report[name] = round(seconds, 2)
+            except Exception as err:  # noqa: BLE001 - a head start only: the first launch builds what is missing
+                report[f"task {self.futures.index(f)}"] = f"{type(err).__name__}: {err}"
+        _POOL.clear()
+        self.pool.shutdown(wait=False, cancel_futures=True)
+        report["wall_s"] = round(time.perf_counter() - self.start, 2)
+        log = os.environ.get("BATCHVEH_WARP_AHEAD_LOG")  # for benchmarks/gpu_start.py: what each part took
+        if log:
+            import json
+
+            with open(log, "a") as f:
+                f.write(json.dumps(report) + "\n")
+        return report
+
+    def done(self) -> None:
+        """Record that this model's kernels are in Warp's cache."""
+        try:
+            with open(self.marker, "w") as f:
+                f.write("built ahead by batchveh.engines.warp_build\n")
+        except OSError:
+            pass  # a read-only cache: the next run builds ahead again
+
+
+def wanted(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int) -> bool:
+    """Whether this model's kernels still need building on this machine (no marker in Warp's cache),
+    in worker processes (`spawn_safe`: not from an unguarded user script; there `load_file_modules`
+    runs in a thread instead)."""
+    if os.environ.get("BATCHVEH_WARP_PREBUILD", "1") == "0" or not may_spawn():
+        return False
+    return not os.path.exists(marker(key(model, batched, njmax, naconmax)))
+
+
+def may_spawn() -> bool:
+    """Whether this process may start worker processes: `spawn_safe`, and not itself a daemonic worker
+    (the `gpus` executor's per-GPU processes are: Python refuses them children)."""
+    import multiprocessing
+
+    return spawn_safe() and not multiprocessing.current_process().daemon
+
+
+def load_file_modules(device: str) -> None:
+    """Build (or load from Warp's kernel cache) FILE_MODULES in this process, on a thread per core
+    (Warp's code generation still takes them one at a time): the head start where no worker process
+    may be spawned. The unique modules build at their first launch."""
+    import importlib
+
+    import warp
+
+    try:
+        importlib.import_module(MUJOCO_WARP)  # registers its modules with Warp
+        with warp.ScopedLogLevel(warp.LOG_ERROR):
+            for name in FILE_MODULES:
+                warp.load_module(name, device=device, recursive=False)
+    except Exception:  # noqa: BLE001 - a head start only: the first launch builds whatever is missing, and says why
+        pass
+
+
+_WORLD: dict[str, Any] = {}  # in a worker process: the one-world model and data it built, per payload
+
+
+def _warm(device: str) -> None:
+    """A worker's start: MuJoCo Warp imported, `device` opened."""
+    import importlib
+
+    import warp
+
+    with warp.ScopedLogLevel(warp.LOG_ERROR):
+        warp.init()
+        importlib.import_module(MUJOCO_WARP)
+        warp.get_device(device).context  # noqa: B018 - opens the device's CUDA context here, once
+    time.sleep(0.5)  # held a moment: each warm-up then lands on a process of its own
+
+
+def _build(kind: str, name: str, payload: bytes, device: str) -> tuple[str, float]:
+    """One worker's task: load per-file module `name`, or run MuJoCo Warp's stage `name` once on a
+    one-world copy of the model (its data from MuJoCo C after SETTLE_STEPS steps). Returns (what, s)."""
+    import importlib
+
+    import warp
+
+    t0 = time.perf_counter()
+    with warp.ScopedLogLevel(warp.LOG_ERROR):
+        warp.init()
+        mjw = importlib.import_module(MUJOCO_WARP)  # registers its per-file modules with Warp
+        if kind == "module":
+            importlib.import_module(name)
+            warp.load_module(name, device=device, recursive=False)
+            return name.rsplit(".", 1)[-1], time.perf_counter() - t0
+        with warp.ScopedDevice(device):
+            m, d = _world(mjw, payload)
+            stage = getattr(mjw, name)
+            if name == "fwd_acceleration":
+                stage(m, d, factorize=True)  # as forward() calls it: M's factor-solve
+            else:
+                stage(m, d)
+            warp.synchronize_device(device)
+    return name, time.perf_counter() - t0
+
+
+def _world(mjw, payload: bytes):
+    """The one-world MuJoCo Warp model and data of a payload, made once per worker process."""
+    key_ = hashlib.sha256(payload).hexdigest()
+    if key_ not in _WORLD:
+        import warp
+
+        model, batched, njmax, naconmax = pickle.loads(payload)
+        m = mjw.put_model(model)
+        m.opt.warn_overflow = 0  # as batch.mjx_model sets it: the value is baked into three kernels
+        for field, size in batched.items():  # batched fields with the chunk's leading size (it keys the broadphase)
+            owner, attr = (m.opt, field[4:]) if field.startswith("opt.") else (m, field)
+            a = getattr(owner, attr)
+            first = a.numpy()[:1]
+            setattr(owner, attr, warp.array(np.repeat(first, size, axis=0), dtype=a.dtype))
+        data = mujoco.MjData(model)
+        for _ in range(SETTLE_STEPS):
+            mujoco.mj_step(model, data)
+        d = mjw.put_data(model, data, nworld=1, naconmax=naconmax, njmax=njmax)
+        d.qacc_warmstart.zero_()  # the solver then iterates, and builds its loop's kernels
+        _WORLD.clear()
+        _WORLD[key_] = (m, d)
+    return _WORLD[key_]

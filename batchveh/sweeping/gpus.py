@@ -1,0 +1,477 @@
+"""Sweeps on one host's GPUs without Ray: this process on the first GPU, one worker process on each other.
+
+    python -m batchveh.sweep SPEC --executor gpus      # also the default for warp on 2 or more GPUs (below)
+
+The warp engine uses one GPU per process, so a host's other GPUs need processes of their own. `GpuProcesses`
+starts them first thing (multiprocessing's spawn: a fresh interpreter, nothing of JAX inherited), so that
+their imports and engines are built while this process builds its own engine and runs its first chunk.
+This process (the driver) runs chunks on its main thread, on GPU 0 as JAX sees it, as `--executor local`
+does; each worker holds a `cluster.ChunkWorker` on its GPU (CUDA_VISIBLE_DEVICES set before JAX starts),
+runs one chunk at a time and writes its part itself. Ray is not used: its start (ray.init, the workers'
+imports) cost 7 s before a second GPU worked, and the warp engine fails in a process connected to Ray, so
+there the driver could not work beside the workers (docs/multi-gpu.md).
+
+One queue of chunks, held by the driver: the driver takes its next chunk from the front between its own
+chunks, and a background thread hands the next chunk to each worker the moment it reports its last one
+written (over a pipe per worker: milliseconds, so a worker never waits for the driver's chunk), records it
+in the manifest at once (`finished`, under one lock with the driver's own), and watches the worker
+processes. The driver knows at every moment which process holds which chunk, so a chunk is never lost and
+never recorded twice. Chunks are `shared_chunk(n, gpus)` variants unless the spec or the caller sets them.
+
+Faults. A worker process that dies: the chunk it held goes back to the front of the queue, and a new worker
+starts on that GPU (up to MAX_RESTARTS times). A chunk that raises in a worker goes back too. A chunk runs
+at most MAX_ATTEMPTS times on workers; after that it is reported by name (`run` returns it) and the others
+go on. An error in the driver's own chunk stops the sweep, as `--executor local`. A worker whose engine
+cannot run the spec (ConfigError) or whose manifest differs from the driver's is not used, with a note. A
+driver that dies takes its workers with it (each ends when its pipe closes, at the latest after its chunk).
+
+Small sweeps: where `alone_reason` (with GPU_PROCESS_START_S) says a second GPU would not pay, no worker is
+started and the sweep runs in this process exactly as `--executor local`; the device words say so. The CLI
+picks this executor by itself for the warp engine on 2 or more local GPUs where a second GPU pays
+(`automatic`; BATCHVEH_GPU_PROCESSES=0 turns that off).
+
+The mujoco backend runs too, each worker with one MuJoCo thread and the names in `gpus` naming worker slots
+only: CPU worker processes, so that this module is tested on a machine without GPUs. For tests and
+benchmarks, from the environment: BATCHVEH_FAIL_CHUNKS=2,5 makes chunks 2 and 5 raise in the workers
+(`ChunkWorker.run`); BATCHVEH_KILL_CHUNK=3 makes the worker process that runs chunk 3 exit abruptly
+(os._exit) after simulating it, before writing it, once. While any worker is up, the driver leaves those
+chunks to the workers. BATCHVEH_TIMELINE=PATH writes the events (start, each worker ready, each chunk's
+start and end with where, each worker's death) as JSON to PATH as they happen.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import sys
+import threading
+from collections import Counter, deque
+from collections.abc import Callable
+from multiprocessing.connection import wait
+from typing import TYPE_CHECKING, Any
+
+from batchveh.config import ConfigError
+from batchveh.engines.common import spawn_safe
+from batchveh.sweeping.cluster import (
+    MAX_ATTEMPTS,
+    MAX_RESTARTS,
+    ChunkWorker,
+    Timeline,
+    alone_reason,
+    local_gpus,
+    shared_chunk,
+)
+
+if TYPE_CHECKING:
+    from batchveh.sweeping.results import ResultFolder
+    from batchveh.sweeping.spec import SweepSpec
+
+# What a worker process costs before its GPU works, beyond what this process spends anyway: it repeats the
+# imports this process made before its executor started (1.8 s on one H200: the 'start' event of
+# h200x2-ray-scaling-1m.json, 1m_ray_2gpu, came 1.76 s after the process began) and the interpreter's start;
+# its engine and compile run while this process builds and compiles its own. Estimated, not yet measured on
+# its own: about 2.5 s. Below 2 x this of simulation on one GPU a sweep runs in this process alone.
+GPU_PROCESS_START_S = 2.5
+STOP_WAIT = 0.2  # s: an idle worker told to stop is given this long to exit, then terminated (it holds nothing)
+WAIT = 0.5  # s: the longest a wait on the workers or on the queue lasts before it looks again (closing, errors)
+
+
+def _work(conn: Any, args: tuple, gpu: str | None, jax_cache: dict[str, Any]) -> None:
+    """A worker process: build a ChunkWorker, say whether it is ready, then run each chunk the driver sends,
+    answering ("done", chunk, part name, record, engine stats) or ("failed", chunk, why); None: stop."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the terminal's whole group: the driver ends us
+    import gc
+
+    gc.set_threshold(50_000, 20, 100)  # as the CLI's own process (batchveh.sweep.tune_process_for_one_job)
+    try:
+        if jax_cache:  # the driver's persistent compile cache (the CLI's enable_compile_cache); starts no backend
+            import jax
+
+            for k, v in jax_cache.items():
+                jax.config.update(k, v)
+        worker = ChunkWorker(*args, gpu=gpu)
+        info = worker.describe()
+    except Exception as err:  # an engine that cannot start here: the driver goes on without this worker
+        info = {"error": f"{type(err).__name__}: {_last_line(err)}"}
+    try:
+        conn.send(("ready", info))
+        while not info["error"]:
+            msg = conn.recv()
+            if msg is None:
+                return
+            c, die = msg
+            try:
+                if die:  # BATCHVEH_KILL_CHUNK: simulated, not written
+                    worker.runner.run(c)
+                    os._exit(1)
+                name, rec = worker.run(c)
+                conn.send(("done", c, name, rec, worker.engine_stats()))
+            except Exception as err:
+                conn.send(("failed", c, f"{type(err).__name__}: {_last_line(err)}"))
+    except (EOFError, OSError):  # the driver is gone
+        return
+
+
+def _last_line(err: BaseException) -> str:
+    lines = str(err).strip().splitlines()
+    return lines[-1] if lines else ""
+
+
+class _Slot:
+    """One GPU's worker: its process (replaced after a death), the driver's end of its pipe, its state
+    ('starting', 'ready', 'gone': not used or not restarted) and the chunk it holds."""
+
+    def __init__(self, index: int, gpu: str):
+        self.index, self.gpu = index, gpu
+        self.where = f"worker {index}"
+        self.proc: Any = None
+        self.conn: Any = None
+        self.state = "starting"
+        self.info: dict[str, Any] | None = None  # its answer to the start, until the driver's manifest is known
+        self.chunk: int | None = None
+        self.restarts = 0
+        self.stats: dict[str, Any] | None = None
+
+
+class GpuProcesses:
+    """Runs a sweep's chunks in this process and in one worker process per other GPU of this host (see the
+    module's docstring).
+
+    `gpus`: the GPUs as CUDA_VISIBLE_DEVICES names them (default: `local_gpus()`); the first is this
+    process's (JAX's device 0), each other gets a worker. With the mujoco backend they only name worker
+    slots (CPU processes of one MuJoCo thread). After `start`, `workers_info` lists each ready worker's
+    process id, GPU and device, and `timeline` the events with their times (time.time())."""
+
+    spreads = True  # the automatic chunk size follows the number of GPUs
+
+    def __init__(
+        self, gpus: list[str] | None = None, max_attempts: int = MAX_ATTEMPTS, max_restarts: int = MAX_RESTARTS
+    ):
+        self.gpus = gpus
+        self.max_attempts, self.max_restarts = max_attempts, max_restarts
+        self.timeline = Timeline()
+        self.workers_info: list[dict[str, Any]] = []
+        self.slots: list[_Slot] = []
+        self.runner: Any = None
+        self.folder: ResultFolder | None = None
+        self.manifest: dict[str, Any] | None = None
+        self._cond = threading.Condition(threading.RLock())  # guards everything below, and `finished`
+        self._queue: deque[int] = deque()
+        self._running = False  # `run` has filled the queue
+        self._own: int | None = None  # the chunk this process runs
+        self._attempts: Counter[int] = Counter()
+        self._failed: dict[int, str] = {}
+        self._finished: Callable[[int, str, dict], None] | None = None
+        self._notes: list[str] = []  # notes before `run` gives the callback
+        self._note: Callable[[str], None] = self._notes.append
+        self._error: BaseException | None = None  # from the background thread, raised in `run`
+        self._stopping = self._closing = False
+        self._thread: threading.Thread | None = None
+        fail = os.environ.get("BATCHVEH_FAIL_CHUNKS", "")
+        self._fail = {int(c) for c in fail.split(",") if c.strip().isdigit()}
+        kill = os.environ.get("BATCHVEH_KILL_CHUNK", "").strip()
+        self._kill = int(kill) if kill.isdigit() else None
+
+    def start(
+        self, spec: SweepSpec, backend: str, n: int, chunk_size: int | None, folder: ResultFolder
+    ) -> tuple[dict[str, Any], str]:
+        """Start the worker processes (not waited for), then build this process's engine; return (what the
+        manifest records, the devices in words). ConfigError where this process cannot run the spec."""
+        from batchveh.engines import resolve_backend
+        from batchveh.sweeping.chunks import ChunkRunner
+
+        self.timeline.add("start")
+        self.folder = folder
+        backend = resolve_backend(backend)
+        if backend == "mjx":
+            raise ConfigError(
+                "--executor gpus: MJX's JAX implementation (backend mjx) already shards each chunk over every "
+                "local GPU in one process; allowed: --executor local, or backend warp"
+            )
+        gpu_engine = backend != "mujoco"
+        gpus = local_gpus() if self.gpus is None else list(self.gpus)
+        chunk = chunk_size or spec.chunk_size
+        if chunk is None and gpu_engine and len(gpus) > 1:
+            chunk = shared_chunk(n, len(gpus))
+        # the mujoco engine (CPU worker processes, for tests) is never estimated: only one slot or one chunk
+        start_s = GPU_PROCESS_START_S if gpu_engine else 0.0
+        why = "no GPU found" if not gpus else None
+        why = why or alone_reason(n, spec.stats_config().n_steps, backend, len(gpus), chunk, start_s, "its start")
+        if why:  # exactly as --executor local
+            self.runner = ChunkRunner(spec, backend, n, chunk_size)
+            self.manifest = self.runner.manifest
+            self.timeline.add("alone", why=why)
+            return self.manifest, f"{self.runner.device}, in this process alone ({why})"
+        jax_cache = {}
+        jax = sys.modules.get("jax")
+        if jax is not None and jax.config.jax_compilation_cache_dir:
+            jax_cache = {
+                "jax_compilation_cache_dir": jax.config.jax_compilation_cache_dir,
+                "jax_persistent_cache_min_compile_time_secs": jax.config.jax_persistent_cache_min_compile_time_secs,
+            }
+        nthread = 0 if gpu_engine else 1
+        self._args = (spec, backend, n, chunk, len(gpus), nthread, folder.shared)
+        self._jax_cache, self._gpu_engine = jax_cache, gpu_engine
+        self._ctx = multiprocessing.get_context("spawn")
+        with self._cond:
+            self.slots = [_Slot(i, g) for i, g in enumerate(gpus[1:])]
+            for slot in self.slots:
+                self._spawn(slot)
+        self.timeline.add("workers asked", count=len(self.slots), gpus=gpus[1:])
+        self._thread = threading.Thread(target=self._watch, name="batchveh-gpu-workers", daemon=True)
+        self._thread.start()
+        self.runner = ChunkRunner(spec, backend, n, chunk, workers=len(gpus), nthread=nthread)
+        with self._cond:
+            self.manifest = self.runner.manifest
+            self.timeline.add("engine built", chunk_size=self.runner.chunk)
+            self._hand_out()  # admits the workers that were ready first
+        k = len(self.slots)
+        return self.manifest, f"this process and {k} worker process{'es' * (k > 1)}, each {self.runner.device}"
+
+    def _spawn(self, slot: _Slot) -> None:
+        here, there = self._ctx.Pipe()
+        gpu = slot.gpu if self._gpu_engine else None
+        proc = self._ctx.Process(
+            target=_work, args=(there, self._args, gpu, self._jax_cache), name=f"batchveh-{slot.where}", daemon=True
+        )
+        proc.start()
+        there.close()  # the worker's end lives in the worker: its death closes the pipe
+        slot.proc, slot.conn, slot.state, slot.info, slot.chunk = proc, here, "starting", None, None
+
+    def run(
+        self,
+        todo: list[int],
+        finished: Callable[[int, str, dict], None],
+        note: Callable[[str], None],
+        phase: Callable[[str], None] = lambda _: None,
+    ) -> dict[int, str]:
+        """Run the chunks in `todo`, here and on the workers, calling finished(chunk, part name, record) as
+        each is written; return {chunk: why} for those that kept failing on the workers. An error in this
+        process's own chunk stops the sweep."""
+        if not self.slots:  # this process alone, as --executor local (the next chunk prepared ahead)
+            for c, table in self.runner.run_ahead(todo, phase):
+                finished(c, *self.folder.write_file(c, table))
+            return {}
+        with self._cond:
+            self._finished, self._note = finished, note
+            for text in self._notes:
+                note(text)
+            self._queue, self._running = deque(todo), True
+            self._hand_out()
+        try:
+            while True:
+                with self._cond:
+                    c = self._next_here()
+                    while c is None and not self._all_done():
+                        phase(f"{self._held()} chunk{'s' * (self._held() != 1)} on worker processes")
+                        self._cond.wait(WAIT)
+                        c = self._next_here()
+                    if c is None:
+                        return dict(self._failed)
+                    phase(f"chunk {c + 1}/{self.runner.n_chunks} here, {self._held()} on worker processes")
+                    self.timeline.add("chunk start", chunk=c, where="driver")
+                part = self.folder.write_file(c, self.runner.run(c))
+                with self._cond:
+                    self.timeline.add("chunk end", chunk=c, where="driver")
+                    self._own = None
+                    finished(c, *part)
+                    self._cond.notify_all()
+        finally:
+            with self._cond:
+                self._stopping = True  # every chunk is written or failed, or this process's chunk raised
+                for slot in self.slots:
+                    self._send(slot, None)
+
+    def _next_here(self) -> int | None:
+        """The first chunk of the queue for this process (not one a test hook leaves to the workers while one
+        is up), taken; raises what the background thread met."""
+        if self._error is not None:
+            raise self._error
+        up = any(s.state != "gone" for s in self.slots)
+        for c in self._queue:
+            if not up or not (c in self._fail or c == self._kill):
+                self._queue.remove(c)
+                self._own = c
+                return c
+        return None
+
+    def _held(self) -> int:
+        return sum(s.chunk is not None for s in self.slots)
+
+    def _all_done(self) -> bool:
+        return not self._queue and self._own is None and not self._held()
+
+    def _send(self, slot: _Slot, msg: Any) -> bool:
+        try:
+            slot.conn.send(msg)
+            return True
+        except (OSError, ValueError):  # it died (its death is taken in by `_watch`), or its pipe is closed
+            return False
+
+    def _hand_out(self) -> None:
+        """Admit the workers that are ready (once this process's manifest is known) and give each idle one the
+        first chunk of the queue. Under the lock."""
+        if self._stopping:
+            return
+        if self.manifest is not None:
+            for slot in self.slots:
+                if slot.state == "starting" and slot.info is not None:
+                    self._admit(slot)
+        if not self._running:
+            return
+        for slot in self.slots:
+            if slot.state != "ready" or slot.chunk is not None or not self._queue:
+                continue
+            c = self._queue.popleft()
+            die = c == self._kill
+            if die:
+                self._kill = None  # once
+            slot.chunk = c
+            if not self._send(slot, (c, die)):
+                slot.chunk = None
+                self._queue.appendleft(c)  # no attempt spent: it never started
+                continue
+            self.timeline.add("chunk start", chunk=c, where=slot.where)
+
+    def _admit(self, slot: _Slot) -> None:
+        info, why = slot.info, slot.info["error"]
+        if not why:
+            differ = [k for k in self.manifest if info["manifest"].get(k) != self.manifest[k]]
+            if differ:
+                k = differ[0]
+                why = f"it differs in {k}: {info['manifest'].get(k)!r}, here {self.manifest[k]!r}"
+        if why:
+            self._note(f"the worker process on GPU {slot.gpu} is not used: {why}")
+            slot.state = "gone"
+            self._send(slot, None)
+            return
+        slot.state = "ready"
+        self.workers_info.append({"pid": info["pid"], "gpu": slot.gpu, "device": info["device"]})
+        self.timeline.add("worker ready", where=slot.where, pid=info["pid"], gpu=slot.gpu, device=info["device"])
+
+    def _watch(self) -> None:
+        """The background thread: take in what the workers say, and their deaths, as they come."""
+        try:
+            while not self._closing:
+                with self._cond:
+                    live = [s for s in self.slots if s.proc is not None]
+                if not live:
+                    return
+                ready = wait([s.conn for s in live] + [s.proc.sentinel for s in live], timeout=WAIT)
+                with self._cond:
+                    if self._closing:
+                        return
+                    for slot in live:
+                        if slot.conn in ready or slot.proc.sentinel in ready:
+                            self._receive(slot)  # what it said before it died counts
+                        if slot.proc.sentinel in ready:
+                            self._died(slot)
+                    self._hand_out()
+                    self._cond.notify_all()
+        except BaseException as err:  # noqa: BLE001 (a `finished` that raised, say): `run` raises it
+            with self._cond:
+                if not self._closing:  # closing: a pipe closed under the wait
+                    self._error = err
+                self._cond.notify_all()
+
+    def _receive(self, slot: _Slot) -> None:
+        try:
+            while slot.conn.poll():
+                msg = slot.conn.recv()
+                if msg[0] == "ready":
+                    slot.info = msg[1]
+                    continue
+                c, slot.chunk = msg[1], None
+                if msg[0] == "done":
+                    _, _, name, rec, slot.stats = msg
+                    self.timeline.add("chunk end", chunk=c, where=slot.where)
+                    self._finished(c, name, rec)
+                else:
+                    self._again(c, msg[2])
+        except (EOFError, OSError):  # its end is closed: it died, which its sentinel tells
+            pass
+
+    def _died(self, slot: _Slot) -> None:
+        slot.proc.join()
+        code = slot.proc.exitcode
+        slot.conn.close()
+        slot.proc = None
+        c, slot.chunk = slot.chunk, None
+        if self._stopping or slot.state == "gone":  # stopped, or let go
+            slot.state = "gone"
+            return
+        self.timeline.add("worker died", where=slot.where, chunk=c, exitcode=code)
+        if c is not None:
+            self._again(c, f"its worker process (GPU {slot.gpu}) died (exit code {code})")
+        if slot.restarts < self.max_restarts:
+            slot.restarts += 1
+            self._spawn(slot)
+            self.timeline.add("worker restarted", where=slot.where, restarts=slot.restarts)
+        else:
+            slot.state = "gone"
+            self._note(f"the worker process on GPU {slot.gpu} died {slot.restarts + 1} times; not started again")
+
+    def _again(self, c: int, why: str) -> None:
+        """Chunk `c` failed on a worker: back to the front of the queue, or reported after max_attempts."""
+        self._attempts[c] += 1
+        if self._attempts[c] < self.max_attempts:
+            self._note(f"chunk {c}: {why}; it runs again (attempt {self._attempts[c] + 1} of {self.max_attempts})")
+            self._queue.appendleft(c)
+        else:
+            self._failed[c] = f"failed {self._attempts[c]} times, last: {why}"
+
+    def engine_stats(self) -> dict[str, Any]:
+        """Compiles summed over this process and the workers (each worker's as of its last chunk), the longest
+        compile, MuJoCo's first warnings."""
+        e = self.runner.engine
+        stats = [{"compile_s": e.compile_s, "compiles": e.compiles, "warnings": list(getattr(e, "warnings", []))}]
+        with self._cond:
+            stats += [s.stats for s in self.slots if s.stats]
+        return {
+            "compile_s": max(s["compile_s"] for s in stats),
+            "compiles": sum(s["compiles"] for s in stats),
+            "warnings": [w for s in stats for w in s["warnings"]][:5],
+        }
+
+    def close(self) -> None:
+        """End the workers: those told to stop exit by themselves; the others (still starting, or running a
+        chunk of a sweep that stopped on an error) are terminated."""
+        if not self.slots or self._closing:
+            return
+        with self._cond:  # the background thread, woken by the deaths, finds `_closing` and touches nothing
+            self._closing = self._stopping = True
+            for slot in self.slots:
+                if slot.proc is None:
+                    continue
+                idle = slot.state == "ready" and slot.chunk is None
+                if idle and self._send(slot, None):
+                    slot.proc.join(timeout=STOP_WAIT)
+                if slot.proc.is_alive():
+                    slot.proc.terminate()
+                    slot.proc.join(timeout=5.0)
+                if slot.proc.is_alive():
+                    slot.proc.kill()
+                    slot.proc.join()
+                slot.conn.close()
+                slot.proc = None
+        if self._thread is not None:
+            self._thread.join()
+        self.timeline.add("closed")
+
+
+def automatic(spec: SweepSpec, backend: str, n: int, chunk_size: int | None = None) -> GpuProcesses | None:
+    """The executor of a plain `python -m batchveh.sweep`: GpuProcesses for the warp engine (`backend`
+    resolved) on 2 or more local GPUs where a second GPU pays (`alone_reason` with GPU_PROCESS_START_S), else
+    None (in-process). MJX already shards each chunk over every local GPU. BATCHVEH_GPU_PROCESSES=0, or a
+    main script that a spawned process would run again (`spawn_safe`): None."""
+    if backend != "warp" or os.environ.get("BATCHVEH_GPU_PROCESSES", "1") == "0" or not spawn_safe():
+        return None
+    gpus = local_gpus()
+    if len(gpus) < 2:
+        return None
+    chunk = chunk_size or spec.chunk_size or shared_chunk(n, len(gpus))
+    steps = spec.stats_config().n_steps
+    if alone_reason(n, steps, backend, len(gpus), chunk, GPU_PROCESS_START_S, "its start") is not None:
+        return None
+    return GpuProcesses(gpus)

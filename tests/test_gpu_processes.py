@@ -1,0 +1,169 @@
+"""One process per local GPU without Ray (issue 33, batchveh/sweeping/gpus.py), on the CPU: backend mujoco
+(float64, so the in-process sweep of the same spec is the exact reference), two 'GPU' names, so this process
+and one spawned worker process of one MuJoCo thread. Equal rows, each chunk recorded once; a worker process
+killed in a chunk (BATCHVEH_KILL_CHUNK); a chunk that keeps failing in the worker (BATCHVEH_FAIL_CHUNKS);
+the automatic choice and the sweep alone in this process.
+
+A worker process starts in about 3-5 s on 2 cores (its imports and engine). So that it surely runs
+chunks, this process waits for it before its second chunk (`_patient`).
+"""
+
+import json
+import os
+import time
+from collections import Counter
+
+import pandas as pd
+import pytest
+from conftest import sweep_spec as _spec
+
+import batchveh
+from batchveh.sweep import main, run_sweep
+from batchveh.sweeping import gpus
+from batchveh.sweeping.chunks import ChunkRunner
+from batchveh.sweeping.results import ResultFolder
+from batchveh.sweeping.spec import load_spec
+
+NAMES = ["0", "1"]  # this process and one worker process
+# the spec: conftest.sweep_spec, 8 variants of 1 s (300 steps of 5 ms with the settle), here in 4 chunks of 2
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The spec swept in this process in chunks of 2: the exact reference."""
+    tmp = tmp_path_factory.mktemp("reference")
+    run_sweep(load_spec(_spec(tmp)), out=tmp / "ref", chunk_size=2, progress=False)
+    return batchveh.load(tmp / "ref")
+
+
+def _parts(out):
+    return sorted(p.name for p in out.glob("part-*.parquet"))
+
+
+def _patient(monkeypatch, ex):
+    """This process runs its first chunk, then waits (up to 60 s) until the worker process is ready."""
+    run, calls = ChunkRunner.run, []
+
+    def here(self, c):  # in this process only: the worker process imports its own ChunkRunner
+        calls.append(c)
+        deadline = time.time() + 60
+        while len(calls) == 2 and not ex.workers_info and time.time() < deadline:
+            time.sleep(0.01)
+        return run(self, c)
+
+    monkeypatch.setattr(ChunkRunner, "run", here)
+
+
+def _sweep(tmp_path, monkeypatch, name, **env):
+    for k, v in env.items():
+        monkeypatch.setenv(k, v)
+    timeline = tmp_path / f"{name}.timeline.json"
+    monkeypatch.setenv("BATCHVEH_TIMELINE", str(timeline))
+    ex, notes, out = gpus.GpuProcesses(NAMES), [], tmp_path / name
+    _patient(monkeypatch, ex)
+    s = run_sweep(load_spec(_spec(tmp_path)), out=out, chunk_size=2, progress=False, report=notes.append, executor=ex)
+    assert s["device"].startswith("this process and 1 worker process, each 1 CPU thread"), s["device"]
+    assert not list(out.glob(".*.tmp"))
+    assert json.loads(timeline.read_text())[-1]["event"] == "closed"  # written out as it happened
+    assert all(not s.proc for s in ex.slots)  # the workers ended
+    return s, ex, notes, out
+
+
+def _ends(ex):
+    return [(e["chunk"], e["where"]) for e in ex.timeline if e["event"] == "chunk end"]
+
+
+def test_equals_the_in_process_sweep(tmp_path, monkeypatch, reference):
+    s, ex, notes, out = _sweep(tmp_path, monkeypatch, "two")
+    assert s["rows"] == s["ran"] == 8 and not s["failed"] and not notes, (s, notes)
+    pd.testing.assert_frame_equal(batchveh.load(out), reference)  # bit-identical; verifies the checksums
+    # each chunk recorded once, both processes ran chunks, and the worker is another process
+    names = [f"part-0000{c}.parquet" for c in range(4)]
+    assert sorted(ResultFolder(out).read_manifest()["parts"]) == _parts(out) == names
+    ends = _ends(ex)
+    assert sorted(c for c, _ in ends) == [0, 1, 2, 3], ends
+    where = Counter(w for _, w in ends)
+    assert where["driver"] >= 1 and where["worker 0"] >= 1, where
+    [info] = ex.workers_info
+    assert info["gpu"] == "1" and info["pid"] != os.getpid()
+
+
+def test_killed_worker_chunk_runs_again(tmp_path, monkeypatch, reference):
+    s, ex, notes, out = _sweep(tmp_path, monkeypatch, "killed", BATCHVEH_KILL_CHUNK="1")
+    assert s["rows"] == 8 and not s["failed"], s
+    assert any("chunk 1: its worker process (GPU 1) died (exit code 1); it runs again" in n for n in notes), notes
+    died = [e for e in ex.timeline if e["event"] == "worker died"]
+    assert [(e["chunk"], e["exitcode"]) for e in died] == [(1, 1)], died
+    assert any(e["event"] == "worker restarted" for e in ex.timeline)
+    pd.testing.assert_frame_equal(batchveh.load(out), reference)
+    assert sorted(ResultFolder(out).read_manifest()["parts"]) == _parts(out) and len(_parts(out)) == 4
+    assert sorted(c for c, _ in _ends(ex)) == [0, 1, 2, 3]  # chunk 1 ended once, after its run again
+
+
+def test_chunk_that_keeps_failing_is_reported(tmp_path, monkeypatch, reference):
+    s, ex, notes, out = _sweep(tmp_path, monkeypatch, "failing", BATCHVEH_FAIL_CHUNKS="2")
+    assert list(s["failed"]) == [2] and "failed 3 times" in s["failed"][2] and "injected fault" in s["failed"][2]
+    assert sum("chunk 2: RuntimeError" in n and "it runs again" in n for n in notes) == 2, notes
+    assert _parts(out) == ["part-00000.parquet", "part-00001.parquet", "part-00003.parquet"]
+    expect = reference[~reference.variant.isin([4, 5])].reset_index(drop=True)
+    pd.testing.assert_frame_equal(batchveh.load(out), expect)
+
+
+def test_one_gpu_runs_alone_in_this_process(tmp_path, monkeypatch, capsys, reference):
+    path = _spec(tmp_path)
+    ex = gpus.GpuProcesses(["0"])
+    s = run_sweep(load_spec(path), out=tmp_path / "one", chunk_size=2, progress=False, executor=ex)
+    assert s["device"].endswith("in this process alone (one GPU)") and not ex.slots, s["device"]
+    pd.testing.assert_frame_equal(batchveh.load(tmp_path / "one"), reference)
+    # the command line: --executor gpus with one GPU visible
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "0")
+    argv = [str(path), "--executor", "gpus", "--chunk-size", "2", "--out", str(tmp_path / "cli"), "--quiet"]
+    assert main(argv) == 0
+    assert "in this process alone (one GPU))" in capsys.readouterr().out
+
+
+def test_automatic_choice(tmp_path, monkeypatch):
+    spec = load_spec(_spec(tmp_path, fixed={"total_time": 10.0, "ramp_time": 2.0}))  # 2,100 steps
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "0,1")
+    monkeypatch.delenv("BATCHVEH_GPU_PROCESSES", raising=False)
+    assert not gpus.spawn_safe()  # pytest's main script: no worker processes unless asked for
+    assert gpus.automatic(load_spec(_spec(tmp_path, "unguarded")), "warp", 1_000_000) is None
+    monkeypatch.setattr(gpus, "spawn_safe", lambda: True)  # as under python -m batchveh.sweep
+    ex = gpus.automatic(spec, "warp", 1_000_000)
+    assert isinstance(ex, gpus.GpuProcesses) and ex.gpus == ["0", "1"]
+    assert gpus.automatic(spec, "warp", 100_000) is None  # one chunk of shared_chunk's
+    assert gpus.automatic(spec, "warp", 200_000, chunk_size=4096) is not None  # 22 s of simulation on one GPU
+    assert gpus.automatic(spec, "warp", 40_000, chunk_size=4096) is None  # 4 s: less than 2 x the start
+    assert gpus.automatic(spec, "mjx", 1_000_000) is None  # MJX shards over every GPU itself
+    assert gpus.automatic(spec, "mujoco", 1_000_000) is None
+    monkeypatch.setenv("BATCHVEH_GPU_PROCESSES", "0")
+    assert gpus.automatic(spec, "warp", 1_000_000) is None
+    monkeypatch.setenv("BATCHVEH_GPU_PROCESSES", "1")
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "0")
+    assert gpus.automatic(spec, "warp", 1_000_000) is None
+
+
+def test_mjx_is_refused_in_one_line(tmp_path, capsys):
+    argv = [str(_spec(tmp_path)), "--executor", "gpus", "--backend", "mjx", "--quiet"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "already shards each chunk" in err and "Traceback" not in err, err
+
+
+def test_a_worker_that_differs_is_not_used():
+    ex = gpus.GpuProcesses(NAMES)
+    ex.manifest, notes = {"backend": "warp", "precision": "f32"}, []
+    ex._note = notes.append
+    same, other, broken = gpus._Slot(0, "1"), gpus._Slot(1, "2"), gpus._Slot(2, "3")
+    ex.slots = [same, other, broken]
+    for slot in ex.slots:
+        slot.conn = type("Closed", (), {"send": lambda self, msg: None})()
+    same.info = {"error": None, "manifest": dict(ex.manifest), "pid": 1, "device": "1 x GPU"}
+    other.info = {**same.info, "manifest": {"backend": "warp", "precision": "f64"}}
+    broken.info = {"error": "ConfigError: no GPU"}
+    ex._hand_out()
+    assert [s.state for s in ex.slots] == ["ready", "gone", "gone"]
+    assert notes == [
+        "the worker process on GPU 2 is not used: it differs in precision: 'f64', here 'f32'",
+        "the worker process on GPU 3 is not used: ConfigError: no GPU",
+    ]
