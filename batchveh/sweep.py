@@ -421,9 +421,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--executor",
         choices=("local", "ray", "gpus"),
-        default="local",
-        help="local: the chunks run in this process (default; the warp engine on 2 or more local GPUs uses "
-        "gpus where a second GPU pays, unless BATCHVEH_GPU_PROCESSES=0); ray: on Ray workers, one per GPU or "
+        default=None,
+        help="local: the chunks run in this process; by default the same, but the warp engine on 2 or more local "
+        "GPUs uses gpus where a second GPU pays (unless BATCHVEH_GPU_PROCESSES=0); ray: on Ray workers, one per GPU or "
         "else per CPU, which write the parts themselves (pip install -e '.[ray]'); gpus: one process per local "
         "GPU, this one on the first, no Ray",
     )
@@ -459,7 +459,7 @@ def main(argv: list[str] | None = None) -> int:
             from batchveh.sweeping.gpus import GpuProcesses
 
             executor = GpuProcesses()
-        elif backend == "warp":  # every local GPU where a second one pays
+        elif backend == "warp" and args.executor is None:  # every local GPU where a second one pays
             from batchveh.sweeping import gpus
 
             n = count_variants(spec, args.limit, args.max_variants)

@@ -78,8 +78,12 @@ class WarpEngine(MjxEngine):
 
             # a machine that never built a vehicle's kernels: the workers start now, and import while the
             # engine prepares its first chunk
-            if os.environ.get("BATCHVEH_WARP_PREBUILD", "1") != "0" and warp_build.may_spawn() and warp_build.cold():
-                warp_build.start_workers(f"cuda:{self.devices[0].id}")
+            try:
+                wanted = os.environ.get("BATCHVEH_WARP_PREBUILD", "1") != "0" and warp_build.may_spawn()
+                if wanted and warp_build.cold():
+                    warp_build.start_workers(f"cuda:{self.devices[0].id}")
+            except Exception:  # noqa: BLE001 - a head start only: the first launch builds what is missing
+                warp_build.stop_workers()
 
     @property
     def implementation(self) -> str:
@@ -105,22 +109,30 @@ class WarpEngine(MjxEngine):
             batched = {k: batch.n for k in batch.fields if k not in WARP_UNREAD and k not in SAMEFRAME}
             sizes = (constraint_rows(batch.model, self.contacts_per_world), self.contacts_per_world)
             device = f"cuda:{self.devices[0].id}"
-            if warp_build.wanted(batch.model, batched, *sizes):
-                try:
+            try:
+                if warp_build.wanted(batch.model, batched, *sizes):
                     ahead = warp_build.AheadBuild(batch.model, batched, *sizes, device=device)
-                except Exception:  # noqa: BLE001 - a head start only: the first launch builds what is missing
-                    ahead = None
-            elif os.environ.get("BATCHVEH_WARP_PREBUILD", "1") != "0" and not warp_build.may_spawn():
-                threading.Thread(target=warp_build.load_file_modules, args=(device,), daemon=True).start()
+                else:
+                    warp_build.stop_workers()  # started with the engine, not needed for this model
+                    if os.environ.get("BATCHVEH_WARP_PREBUILD", "1") != "0" and not warp_build.may_spawn():
+                        threading.Thread(target=warp_build.load_file_modules, args=(device,), daemon=True).start()
+            except Exception:  # noqa: BLE001 - a head start only: the first launch builds what is missing
+                ahead = None
+                warp_build.stop_workers()
         try:
-            return super()._compiled(batch, mx, axes, params)
+            compiled = super()._compiled(batch, mx, axes, params)
         finally:
             if ahead is not None:
                 self.ahead = ahead.wait()
-                self._built = ahead
+        self._built = ahead  # its marker is written once a chunk has run on the compiled program
+        return compiled
 
     def run(self, batch: VariantBatch) -> dict[str, np.ndarray]:
-        out = super().run(batch)
+        try:
+            out = super().run(batch)
+        except BaseException:
+            self._built = None  # no chunk ran: no marker
+            raise
         built, self._built = getattr(self, "_built", None), None
         if built is not None:  # the first chunk ran: this vehicle's kernels are all in Warp's cache now
             built.done()

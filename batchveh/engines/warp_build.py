@@ -143,6 +143,14 @@ def start_workers(device: str) -> None:
         pool.submit(_warm, device)
 
 
+def stop_workers() -> None:
+    """Let the worker processes go (those `start_workers` began for a model that turned out not to need them)."""
+    pool = _POOL.pop("pool", None)
+    _POOL.clear()
+    if pool is not None:
+        pool.shutdown(wait=False, cancel_futures=True)
+
+
 class AheadBuild:
     """The workers building one model's kernels; `wait` for them, then `done` once the engine's
     first chunk has run (writes the marker)."""
@@ -171,8 +179,7 @@ class AheadBuild:
                 report[name] = round(seconds, 2)
             except Exception as err:  # noqa: BLE001 - a head start only: the first launch builds what is missing
                 report[f"task {self.futures.index(f)}"] = f"{type(err).__name__}: {err}"
-        _POOL.clear()
-        self.pool.shutdown(wait=False, cancel_futures=True)
+        stop_workers()
         report["wall_s"] = round(time.perf_counter() - self.start, 2)
         log = os.environ.get("BATCHVEH_WARP_AHEAD_LOG")  # for benchmarks/gpu_start.py: what each part took
         if log:

@@ -213,8 +213,9 @@ def _start_local() -> None:
 
 
 def local_gpus() -> list[str]:
-    """This machine's GPUs as CUDA_VISIBLE_DEVICES names them (its value where set, else the devices
-    /dev/nvidia0, /dev/nvidia1, ...), without starting CUDA."""
+    """This machine's GPUs as CUDA_VISIBLE_DEVICES names them (its value where set, else 0..k-1 for the k
+    devices /dev/nvidiaN: CUDA numbers what it sees from 0, where a container's files may be /dev/nvidia2 and
+    /dev/nvidia3), without starting CUDA."""
     visible = os.environ.get("CUDA_VISIBLE_DEVICES")
     if visible is not None:
         return [v.strip() for v in visible.split(",") if v.strip() and v.strip() != "-1"]
@@ -222,7 +223,8 @@ def local_gpus() -> list[str]:
         names = os.listdir("/dev")
     except OSError:
         return []
-    return sorted((m.group(1) for m in map(re.compile(r"nvidia(\d+)$").match, names) if m), key=int)
+    found = [m for m in map(re.compile(r"nvidia(\d+)$").match, names) if m]
+    return [str(i) for i in range(len(found))]
 
 
 def alone_reason(

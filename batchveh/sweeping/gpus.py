@@ -290,7 +290,9 @@ class GpuProcesses:
             raise self._error
         up = any(s.state != "gone" for s in self.slots)
         for c in self._queue:
-            if not up or not (c in self._fail or c == self._kill):
+            # a chunk that failed on a worker (or killed it) is not run here while a worker is up: it could
+            # take this process, and the whole sweep, with it
+            if not up or not (c in self._fail or c == self._kill or self._attempts[c] > 0):
                 self._queue.remove(c)
                 self._own = c
                 return c
