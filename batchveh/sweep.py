@@ -265,7 +265,11 @@ def run_sweep(
                 ran += size[c]
                 bar.update(size[c])
 
-            failed = executor.run(todo, finished, note, phase=lambda what: bar.set_postfix_str(what, refresh=True))
+            try:
+                failed = executor.run(todo, finished, note, phase=lambda what: bar.set_postfix_str(what, refresh=True))
+            except BaseException:
+                executor.close()  # its workers stop writing while this process still holds the folder's lock
+                raise
             bar.set_postfix_str("done")
             bar.close()
             wall = time.perf_counter() - t_start

@@ -199,9 +199,12 @@ def _gpu_processes(*docs: dict) -> str:
             f"**{p['process_ratio']:.3f}x**"
             for p in big
         )
-        return f"two {cards}s: 1,000,000 x 10 s {walls}; 100,000 x 10 s (one chunk, in-process) " + ", ".join(
-            f"{p['process_ratio']:.2f}x" for p in small
-        )
+        chunks = {d["steps"][p["gpus"]]["chunks"] for p in big}
+        text = f"two {cards}s: 1,000,000 x 10 s in {'/'.join(map(str, sorted(chunks)))} chunks: {walls}"
+        if small:
+            ratios = ", ".join(f"{p['process_ratio']:.2f}x" for p in small)
+            text += f"; 100,000 x 10 s (one chunk, in-process) {ratios}"
+        return text
 
     return " | ".join(one(d) for d in docs)
 
@@ -314,10 +317,11 @@ ROWS = [
     Row(
         "Two GPUs without Ray: `--executor gpus` (one process per GPU; the default on a host with several) against "
         "one GPU in-process (CUDA_VISIBLE_DEVICES=0), end to end, alternated pairs",
-        ["h200x2-gpu-processes.json", "h100x2-gpu-processes.json"],
+        ["h100x2-gpu-processes.json", "h200x2-gpu-processes.json"],
         _gpu_processes,
-        "two H200s; two H100s (32 cores)",
-        "`python benchmarks/ray_gpus.py --gpu-processes OUT --rounds-1m 1 --rounds-100k 2`",
+        "two H100s; two H200s (32 cores)",
+        "`python benchmarks/ray_gpus.py --gpu-processes OUT --rounds-1m 1 --rounds-100k 2` (the H200 run: "
+        "`--gpus-chunk-size 66816`, the chunk before)",
     ),
     Row(
         "A small sweep on a two-GPU host: 100,000 x 10 s with --executor ray (below Ray's break-even it runs "

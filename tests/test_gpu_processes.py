@@ -167,3 +167,24 @@ def test_a_worker_that_differs_is_not_used():
         "the worker process on GPU 2 is not used: it differs in precision: 'f64', here 'f32'",
         "the worker process on GPU 3 is not used: ConfigError: no GPU",
     ]
+
+
+def test_a_worker_that_cannot_start_waits_to_be_let_go(tmp_path):
+    """A worker whose engine fails to start says why and then waits for the driver: had it exited at once,
+    the driver would have taken it for dead, restarted it, and lost the reason."""
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("spawn")
+    here, there = ctx.Pipe()
+    bad = (None, "mujoco", 1, None, 1, 1, str(tmp_path))  # no spec: ChunkWorker cannot build its runner
+    proc = ctx.Process(target=gpus._work, args=(there, bad, None, {}), daemon=True)
+    proc.start()
+    there.close()
+    assert here.poll(120)
+    kind, info = here.recv()
+    assert kind == "ready" and info["error"], info
+    proc.join(timeout=1.0)
+    assert proc.is_alive()  # still there: the driver reads why before it lets the worker go
+    here.send(None)
+    proc.join(timeout=30)
+    assert proc.exitcode == 0

@@ -55,10 +55,10 @@ def test_one_chunk_on_a_shared_host_runs_here_without_ray(tmp_path):
 
 
 def test_shared_chunk_sizes():
-    # one host's GPUs: equal chunks of at least 65,536 variants, up to 8 per GPU, none over the largest
+    # one host's GPUs: equal chunks of at least 65,536 variants, up to 5 per GPU, none over the largest
     assert cluster.shared_chunk(100_000, 2) == 100_096  # one chunk: this process alone
-    assert cluster.shared_chunk(1_000_000, 2) == 66_816  # 15 chunks
-    assert -(-1_000_000 // 66_816) == 15
+    assert cluster.shared_chunk(1_000_000, 2) == 100_096  # 10 chunks: 5 per GPU
+    assert -(-1_000_000 // 100_096) == 10
     assert cluster.shared_chunk(10_000_000, 8) == 130_048  # 77 chunks, under the largest
     assert cluster.shared_chunk(200_000, 2) == 66_816  # 3 chunks
 

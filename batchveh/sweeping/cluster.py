@@ -62,10 +62,13 @@ MAX_ATTEMPTS = 3  # runs of one chunk before it is reported failed
 MAX_RESTARTS = 3  # restarts of one worker after its process died
 PROBE_WAIT = 0.1  # s between readiness probes of a worker that Ray is restarting
 # This process beside the workers: chunks of at least MIN_SHARED_CHUNK variants (the warp engine's rate is flat from
-# 65k variants up: benchmarks/results/archive.json: h200-warp-elliptic10.json), up to CHUNKS_PER_GPU of them per GPU, so
-# that a Ray worker that joins late still evens out the end (docs/multi-gpu.md)
+# 65k variants up on the elliptic contact: benchmarks/results/archive.json: h200-warp-elliptic10.json), up to
+# CHUNKS_PER_GPU of them per GPU, so that a worker that joins late still evens out the end (docs/multi-gpu.md). On the
+# slip tyre chunks of 66,816 ran 1.13x slower per variant than chunks of 125,184: 1,000,000 x 10 s on two GPUs took
+# 0.585x one GPU's wall in 15 chunks (8 per GPU), 0.557x in 10 chunks of 100,096 (5 per GPU; two H100s, one pair each:
+# archive.json and benchmarks/results/h100x2-gpu-processes.json)
 MIN_SHARED_CHUNK = 65536
-CHUNKS_PER_GPU = 8
+CHUNKS_PER_GPU = 5
 POLL = 0.02  # s: a short sleep where nothing is there to wait on
 # One host's GPUs: what Ray's start costs before the first chunk lands, against the same chunk in-process: two
 # Ray workers, 100,000 variants x 10 s in chunks of 50,176, first part at 20.2 s against 12.8-14.6 s (ray.init

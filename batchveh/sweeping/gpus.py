@@ -96,7 +96,10 @@ def _work(conn: Any, args: tuple, gpu: str | None, jax_cache: dict[str, Any]) ->
         info = {"error": f"{type(err).__name__}: {_last_line(err)}"}
     try:
         conn.send(("ready", info))
-        while not info["error"]:
+        if info["error"]:  # held until the driver has read why (it then lets this worker go, not restart it)
+            conn.recv()
+            return
+        while True:
             msg = conn.recv()
             if msg is None:
                 return
