@@ -49,6 +49,7 @@ def main():
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--out", required=True)
     ap.add_argument("--fresh", action="store_true", help="first runs on empty caches, the ahead build against serial")
+    ap.add_argument("--ways", default="serial,ahead", help="with --fresh: the ways to run, comma-separated")
     args = ap.parse_args()
     if args.fresh:
         return fresh(args)
@@ -121,6 +122,7 @@ def _landed(cache: Path, start: float) -> list[list]:
 
 def fresh(args) -> None:
     ways = {"serial": {"BATCHVEH_WARP_PREBUILD": "0"}, "ahead": {}}
+    ways = {k: v for k, v in ways.items() if k in args.ways.split(",")}
     runs = []
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(args.rounds):
