@@ -130,3 +130,21 @@ def test_a_daemonic_worker_starts_no_workers(monkeypatch):
     assert warp_build.may_spawn()
     monkeypatch.setattr(multiprocessing, "current_process", lambda: SimpleNamespace(daemon=True))
     assert not warp_build.may_spawn()
+
+
+def test_workers_past_their_time_are_ended():
+    """A build still running when the engine stops waiting is ended with the pool, not left for the
+    interpreter's exit to wait on."""
+    import multiprocessing
+    import time
+
+    pool = warp_build._workers()
+    try:
+        late = pool.apply_async(time.sleep, (120,))
+        time.sleep(1.0)
+        assert not late.ready()
+    finally:
+        t0 = time.perf_counter()
+        warp_build.stop_workers()
+    assert time.perf_counter() - t0 < 20
+    assert not [p for p in multiprocessing.active_children() if "PoolWorker" in p.name]

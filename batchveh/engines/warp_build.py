@@ -29,7 +29,6 @@ import hashlib
 import os
 import pickle
 import time
-from concurrent.futures import Future
 from typing import Any
 
 import mujoco
@@ -114,16 +113,17 @@ _POOL: dict[str, Any] = {}  # the worker processes, started ahead (`start_worker
 
 
 def _workers():
-    """The pool of worker processes: one per task, at most a core each but one (left to JAX's compile)."""
+    """The pool of worker processes: one per task, at most a core each but one (left to JAX's compile). A
+    multiprocessing Pool: `terminate` ends a build that overran WAIT_S, where the interpreter's exit would
+    otherwise wait for it."""
     if "pool" not in _POOL:
         import multiprocessing
-        from concurrent.futures import ProcessPoolExecutor
 
         from batchveh.engines.mujoco import cpus
 
         n = max(1, min(len(STAGES) + len(FILE_MODULES), cpus() - 1))
         _POOL["n"] = n
-        _POOL["pool"] = ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("spawn"))
+        _POOL["pool"] = multiprocessing.get_context("spawn").Pool(n)
     return _POOL["pool"]
 
 
@@ -140,7 +140,7 @@ def start_workers(device: str) -> None:
     H100 host), so that they are ready when the engine's first chunk has its model (AheadBuild)."""
     pool = _workers()
     for _ in range(_POOL["n"]):
-        pool.submit(_warm, device)
+        pool.apply_async(_warm, (device,))
 
 
 def stop_workers() -> None:
@@ -148,7 +148,7 @@ def stop_workers() -> None:
     pool = _POOL.pop("pool", None)
     _POOL.clear()
     if pool is not None:
-        pool.shutdown(wait=False, cancel_futures=True)
+        pool.terminate()  # idle by now, or a build past WAIT_S: it ends here, not at the interpreter's exit
 
 
 class AheadBuild:
@@ -161,24 +161,23 @@ class AheadBuild:
         payload = pickle.dumps((model, sized(batched), njmax, naconmax))
         tasks = [("stage", s) for s in STAGES] + [("module", m) for m in FILE_MODULES]
         self.pool = _workers()
-        self.futures: list[Future] = [self.pool.submit(_build, kind, name, payload, device) for kind, name in tasks]
+        self.results = [self.pool.apply_async(_build, (kind, name, payload, device)) for kind, name in tasks]
 
     def wait(self, timeout: float = WAIT_S) -> dict[str, Any]:
-        """Wait for the workers (at most `timeout` s), then let them go; returns what each took (s) or
-        why it failed. A failed or late part only means its modules build at their first launch."""
-        from concurrent.futures import wait
-
-        done, _ = wait(self.futures, timeout=timeout)
+        """Wait for the workers (at most `timeout` s), then end them; returns what each took (s) or why it
+        failed. A failed or late part only means its modules build at their first launch."""
+        deadline = time.perf_counter() + timeout
         report = {}
-        for f in self.futures:
-            if f not in done:
-                report[f"task {self.futures.index(f)}"] = "not done in time"
+        for i, r in enumerate(self.results):
+            r.wait(max(0.0, deadline - time.perf_counter()))
+            if not r.ready():
+                report[f"task {i}"] = "not done in time"
                 continue
             try:
-                name, seconds = f.result()
+                name, seconds = r.get()
                 report[name] = round(seconds, 2)
             except Exception as err:  # noqa: BLE001 - a head start only: the first launch builds what is missing
-                report[f"task {self.futures.index(f)}"] = f"{type(err).__name__}: {err}"
+                report[f"task {i}"] = f"{type(err).__name__}: {err}"
         stop_workers()
         report["wall_s"] = round(time.perf_counter() - self.start, 2)
         log = os.environ.get("BATCHVEH_WARP_AHEAD_LOG")  # for benchmarks/gpu_start.py: what each part took
