@@ -149,11 +149,12 @@ def test_each_folder_is_one_layer():
     folders = {p.parent.name for p in PACKAGE.glob("*/__init__.py")}
     strays = sorted(f for f in folders if f not in LAYERS)
     assert not strays, f"folders that are not a layer: {strays}; name each after its layer in tests/test_imports.py"
-    for module in _graph():
+    graph = _graph()  # parsed once: each call reads and parses every module
+    for module in graph:
         folder = module.split(".")[0] if module.split(".")[0] in folders else None
         home = names[layer[module]] if module in layer else None
         if folder is not None:
             assert home == folder, f"{module} is in the folder {folder}/ but in the layer {home}"
         else:
             assert home not in folders, f"{module or '__init__'} is in the layer {home} but not in the folder {home}/"
-    assert all(m in _graph() for names_ in LAYERS.values() for m in names_), "LAYERS names a module that is gone"
+    assert all(m in graph for names_ in LAYERS.values() for m in names_), "LAYERS names a module that is gone"
