@@ -168,9 +168,7 @@ class InProcess:
         """Run and write the chunks in `todo`, calling finished(chunk, part name, record) after each and
         phase(what) as each phase of a chunk starts; return the chunks that failed (none: an error here
         stops the sweep)."""
-        for c, table in self.runner.run_ahead(todo, phase):
-            finished(c, *self.folder.write_file(c, table))
-        return {}
+        return self.runner.run_here(todo, self.folder, finished, phase)
 
     def engine_stats(self) -> dict[str, Any]:
         e = self.runner.engine

@@ -19,7 +19,6 @@ collides every geom pair MuJoCo C does (cylinder wheels on boxes included).
 
 from __future__ import annotations
 
-import os
 import threading
 from typing import Any
 
@@ -73,14 +72,14 @@ class WarpEngine(MjxEngine):
         # 100,000 variants x 2,100 steps, benchmarks/results/archive.json: h200-warp-unroll.json) and compile longer
         self.scan_unroll = 1
         self.ahead: dict[str, Any] = {}  # what building the kernels ahead took (warp_build.AheadBuild.wait)
+        self._built = None  # the AheadBuild of the program compiled last, until a chunk has run on it
         if self.devices[0].platform == "gpu":
             from batchveh.engines import warp_build
 
             # a machine that never built a vehicle's kernels: the workers start now, and import while the
             # engine prepares its first chunk
             try:
-                wanted = os.environ.get("BATCHVEH_WARP_PREBUILD", "1") != "0" and warp_build.may_spawn()
-                if wanted and warp_build.cold():
+                if warp_build.enabled() and warp_build.may_spawn() and warp_build.cold():
                     warp_build.start_workers(f"cuda:{self.devices[0].id}")
             except Exception:  # noqa: BLE001 - a head start only: the first launch builds what is missing
                 warp_build.stop_workers()
@@ -114,7 +113,7 @@ class WarpEngine(MjxEngine):
                     ahead = warp_build.AheadBuild(batch.model, batched, *sizes, device=device)
                 else:
                     warp_build.stop_workers()  # started with the engine, not needed for this model
-                    if os.environ.get("BATCHVEH_WARP_PREBUILD", "1") != "0" and not warp_build.may_spawn():
+                    if warp_build.enabled() and not warp_build.may_spawn():
                         threading.Thread(target=warp_build.load_file_modules, args=(device,), daemon=True).start()
             except Exception:  # noqa: BLE001 - a head start only: the first launch builds what is missing
                 ahead = None
@@ -133,7 +132,7 @@ class WarpEngine(MjxEngine):
         except BaseException:
             self._built = None  # no chunk ran: no marker
             raise
-        built, self._built = getattr(self, "_built", None), None
+        built, self._built = self._built, None
         if built is not None:  # the first chunk ran: this vehicle's kernels are all in Warp's cache now
             built.done()
         return out

@@ -197,13 +197,15 @@ class AheadBuild:
             pass  # a read-only cache: the next run builds ahead again
 
 
+def enabled() -> bool:
+    """Whether kernels are built ahead at all (BATCHVEH_WARP_PREBUILD=0: each at its first launch)."""
+    return os.environ.get("BATCHVEH_WARP_PREBUILD", "1") != "0"
+
+
 def wanted(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int) -> bool:
     """Whether this model's kernels still need building on this machine (no marker in Warp's cache),
-    in worker processes (`spawn_safe`: not from an unguarded user script; there `load_file_modules`
-    runs in a thread instead)."""
-    if os.environ.get("BATCHVEH_WARP_PREBUILD", "1") == "0" or not may_spawn():
-        return False
-    return not os.path.exists(marker(key(model, batched, njmax, naconmax)))
+    in worker processes (`may_spawn`; where it is False, `load_file_modules` runs in a thread instead)."""
+    return enabled() and may_spawn() and not os.path.exists(marker(key(model, batched, njmax, naconmax)))
 
 
 def may_spawn() -> bool:
@@ -215,18 +217,20 @@ def may_spawn() -> bool:
 
 
 def load_file_modules(device: str) -> None:
-    """Build (or load from Warp's kernel cache) FILE_MODULES in this process, on a thread per core
-    (Warp's code generation still takes them one at a time): the head start where no worker process
-    may be spawned. The unique modules build at their first launch."""
+    """Build (or load from Warp's kernel cache) MuJoCo Warp's per-file modules in this process, all of them
+    at once on a thread per core (Warp's code generation still takes them one at a time; 50.1-53.9 s for
+    the first run on one H200: archive.json, h200-first-gpu-run.json): the head start where no worker
+    process may be spawned. The unique modules build at their first launch."""
     import importlib
 
     import warp
 
+    from batchveh.engines.mujoco import cpus
+
     try:
         importlib.import_module(MUJOCO_WARP)  # registers its modules with Warp
         with warp.ScopedLogLevel(warp.LOG_ERROR):
-            for name in FILE_MODULES:
-                warp.load_module(name, device=device, recursive=False)
+            warp.load_module(f"{MUJOCO_WARP}._src", device=device, recursive=True, max_workers=cpus())
     except Exception:  # noqa: BLE001 - a head start only: the first launch builds whatever is missing, and says why
         pass
 

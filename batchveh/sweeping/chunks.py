@@ -24,7 +24,7 @@ from batchveh.model import course
 from batchveh.model.params import parameter_specs
 from batchveh.stepping import motor_stats, stats
 from batchveh.stepping.batch import apply_solver, make_batch
-from batchveh.sweeping.results import part_table
+from batchveh.sweeping.results import ResultFolder, part_table
 from batchveh.sweeping.spec import SweepSpec, sampler_version
 
 TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match it
@@ -173,6 +173,20 @@ class ChunkRunner:
                 table = self.finish(prepared)
                 phase(f"{where}: writing")
                 yield c, table
+
+    def run_here(
+        self,
+        todo: list[int],
+        folder: ResultFolder,
+        finished: Callable[[int, str, dict], None],
+        phase: Callable[[str], None] = lambda _: None,
+    ) -> dict[int, str]:
+        """Run and write the chunks of `todo` in this process (`run_ahead`), calling finished(chunk, part name,
+        record) after each: what every executor does where it runs alone. Returns the chunks that failed: none
+        (an error here stops the sweep)."""
+        for c, table in self.run_ahead(todo, phase):
+            finished(c, *folder.write_file(c, table))
+        return {}
 
 
 def versions() -> dict[str, str]:

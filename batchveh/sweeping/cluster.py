@@ -498,9 +498,7 @@ class RayExecutor:
         if self.runner is None:
             return self._dispatch(deque(todo), finished, note, phase)
         if not self.actors:  # this process alone, as without Ray (the next chunk prepared ahead)
-            for c, table in self.runner.run_ahead(todo, phase):
-                finished(c, *self.folder.write_file(c, table))
-            return {}
+            return self.runner.run_here(todo, self.folder, finished, phase)
         return self._run_shared(deque(todo), finished, note, phase)
 
     def worth_it(self, warm: bool, queued: int, outstanding: int = 0) -> bool:

@@ -253,9 +253,7 @@ class GpuProcesses:
         each is written; return {chunk: why} for those that kept failing on the workers. An error in this
         process's own chunk stops the sweep."""
         if not self.slots:  # this process alone, as --executor local (the next chunk prepared ahead)
-            for c, table in self.runner.run_ahead(todo, phase):
-                finished(c, *self.folder.write_file(c, table))
-            return {}
+            return self.runner.run_here(todo, self.folder, finished, phase)
         with self._cond:
             self._finished, self._note = finished, note
             for text in self._notes:
