@@ -13,9 +13,10 @@ Four ways of starting `python -m batchveh.sweep SPEC`, alternating, each a fresh
 
 With --fresh, the first run on a fresh machine instead (issue 32): each way gets empty caches of its own
 (Warp's kernels, the CUDA driver's, JAX's programs: WARP_CACHE_PATH, CUDA_CACHE_PATH, BATCHVEH_CACHE), then a
-second, warm run on them. Ways: `ahead` (worker processes build the vehicle's MuJoCo Warp kernels while the
-engine's first chunk compiles, the default: batchveh/engines/warp_build.py) and `serial`
-(BATCHVEH_WARP_PREBUILD=0: each module builds at its first launch). Each first run also records when each
+second, warm run on them (--warm-runs of them). Ways: `ahead` (worker processes build the vehicle's MuJoCo Warp
+kernels while the engine's first chunk compiles, the default: batchveh/engines/warp_build.py; the command line
+starts them before JAX's GPU backend), `ahead-late` (the same, started by the engine: BATCHVEH_WARP_EARLY=0) and
+`serial` (BATCHVEH_WARP_PREBUILD=0: each module builds at its first launch). Each first run also records when each
 kernel module landed in Warp's cache (s after the start), and what each worker's part took.
 Results: benchmarks/results/h200-first-gpu-run.json.
 """
@@ -50,6 +51,7 @@ def main():
     ap.add_argument("--out", required=True)
     ap.add_argument("--fresh", action="store_true", help="first runs on empty caches, the ahead build against serial")
     ap.add_argument("--ways", default="serial,ahead", help="with --fresh: the ways to run, comma-separated")
+    ap.add_argument("--warm-runs", type=int, default=1, help="with --fresh: warm runs after each first run")
     args = ap.parse_args()
     if args.fresh:
         return fresh(args)
@@ -121,7 +123,7 @@ def _landed(cache: Path, start: float) -> list[list]:
 
 
 def fresh(args) -> None:
-    ways = {"serial": {"BATCHVEH_WARP_PREBUILD": "0"}, "ahead": {}}
+    ways = {"serial": {"BATCHVEH_WARP_PREBUILD": "0"}, "ahead": {}, "ahead-late": {"BATCHVEH_WARP_EARLY": "0"}}
     ways = {k: v for k, v in ways.items() if k in args.ways.split(",")}
     runs = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -135,7 +137,7 @@ def fresh(args) -> None:
                     "BATCHVEH_CACHE": str(caches / "batchveh"),
                     "BATCHVEH_WARP_AHEAD_LOG": str(Path(tmp) / f"ahead-{name}-{r}.jsonl"),
                 }
-                for kind in ("first", "warm"):
+                for kind in ("first", *["warm"] * args.warm_runs):
                     row = {"way": name, "kind": kind, "round": r + 1, **_run(args.spec, Path(tmp) / "r", env)}
                     if kind == "first":
                         row["modules_landed_s"] = _landed(caches / "warp", row["start"])

@@ -148,3 +148,60 @@ def test_workers_past_their_time_are_ended():
         warp_build.stop_workers()
     assert time.perf_counter() - t0 < 20
     assert not [p for p in multiprocessing.active_children() if "PoolWorker" in p.name]
+
+
+def test_the_command_line_starts_builders_only_for_a_local_warp_run(monkeypatch):
+    """`python -m batchveh.sweep` starts the kernel builders before JAX's GPU backend only where the warp engine
+    may run here: a backend of auto or warp, no Ray, a local GPU, warp-lang installed."""
+    import importlib.util
+
+    from batchveh import sweep
+    from batchveh.sweeping import cluster
+
+    find_spec = importlib.util.find_spec
+    have = {"warp": True}
+    monkeypatch.setattr(
+        importlib.util,
+        "find_spec",
+        lambda name, *a: (object() if have["warp"] else None) if name == "warp" else find_spec(name, *a),
+    )
+    gpus = ["0"]
+    monkeypatch.setattr(cluster, "local_gpus", lambda: gpus)
+    assert sweep.warp_workers_early("auto", None)
+    assert sweep.warp_workers_early("warp", "gpus")
+    assert not sweep.warp_workers_early("mujoco", None)
+    assert not sweep.warp_workers_early("mjx", None)
+    assert not sweep.warp_workers_early("warp", "ray")  # Ray's workers build their own
+    have["warp"] = False
+    assert not sweep.warp_workers_early("warp", None)
+    have["warp"], gpus[:] = True, []
+    assert not sweep.warp_workers_early("auto", None)
+
+
+def test_workers_are_started_once(monkeypatch):
+    """The command line's early start and the engine's both ask: the workers warm up once. A machine that built
+    a vehicle's kernels before starts none."""
+    from types import SimpleNamespace
+
+    asked = []
+    pool = SimpleNamespace(apply_async=lambda fn, args: asked.append(fn), terminate=lambda: asked.append("ended"))
+
+    def workers():
+        warp_build._POOL.setdefault("pool", pool)
+        warp_build._POOL.setdefault("n", 3)
+        return pool
+
+    monkeypatch.setattr(warp_build, "_workers", workers)
+    monkeypatch.setattr(warp_build, "may_spawn", lambda: True)
+    monkeypatch.setattr(warp_build, "cold", lambda: True)
+    try:
+        warp_build.start_early("cpu").join(10)
+        warp_build.start_workers("cpu")
+        assert asked == [warp_build._warm] * 3
+    finally:
+        warp_build.stop_workers()
+    assert asked[-1] == "ended" and not warp_build._POOL
+    monkeypatch.setattr(warp_build, "cold", lambda: False)
+    asked.clear()
+    warp_build.start_early("cpu").join(10)
+    assert not asked and not warp_build._POOL
