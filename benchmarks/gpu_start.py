@@ -14,9 +14,8 @@ Four ways of starting `python -m batchveh.sweep SPEC`, alternating, each a fresh
 With --fresh, the first run on a fresh machine instead (issue 32): each way gets empty caches of its own
 (Warp's kernels, the CUDA driver's, JAX's programs: WARP_CACHE_PATH, CUDA_CACHE_PATH, BATCHVEH_CACHE), then a
 second, warm run on them (--warm-runs of them). Ways: `ahead` (worker processes build the vehicle's MuJoCo Warp
-kernels while the engine's first chunk compiles, the default: batchveh/engines/warp_build.py; the command line
-starts them before JAX's GPU backend), `ahead-late` (the same, started by the engine: BATCHVEH_WARP_EARLY=0) and
-`serial` (BATCHVEH_WARP_PREBUILD=0: each module builds at its first launch). Each first run also records when each
+kernels while the engine's first chunk compiles, the default: batchveh/engines/warp_build.py) and `serial`
+(BATCHVEH_WARP_PREBUILD=0: each module builds at its first launch). Each first run also records when each
 kernel module landed in Warp's cache (s after the start), and what each worker's part took.
 Results: benchmarks/results/h200-first-gpu-run.json.
 """
@@ -123,7 +122,7 @@ def _landed(cache: Path, start: float) -> list[list]:
 
 
 def fresh(args) -> None:
-    ways = {"serial": {"BATCHVEH_WARP_PREBUILD": "0"}, "ahead": {}, "ahead-late": {"BATCHVEH_WARP_EARLY": "0"}}
+    ways = {"serial": {"BATCHVEH_WARP_PREBUILD": "0"}, "ahead": {}}
     ways = {k: v for k, v in ways.items() if k in args.ways.split(",")}
     runs = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -25,11 +25,9 @@ deletes the marker with it. BATCHVEH_WARP_PREBUILD=0 turns the whole thing off
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import os
 import pickle
-import threading
 import time
 from typing import Any
 
@@ -56,9 +54,6 @@ FILE_MODULES = (
     f"{MUJOCO_WARP}._src.constraint",
     f"{MUJOCO_WARP}._src.support",
 )
-# niceness of every task but the first stage: the solver's stage is the longest (its modules build one after
-# another in one process) and the engine waits for it, while JAX compiles the chunk's program beside it
-NICE = 10
 WAIT_S = 180.0  # the longest the engine waits for the workers before it launches (and builds what is left)
 SETTLE_STEPS = 100  # MuJoCo C steps before the copy: the wheels on the ground, so the solver iterates
 
@@ -115,23 +110,21 @@ def marker(k: str) -> str:
 
 
 _POOL: dict[str, Any] = {}  # the worker processes, started ahead (`start_workers`) or by AheadBuild
-_LOCK = threading.RLock()  # the pool is started from the command line's thread (`start_early`) or the engine
 
 
 def _workers():
     """The pool of worker processes: one per task, at most a core each but one (left to JAX's compile). A
     multiprocessing Pool: `terminate` ends a build that overran WAIT_S, where the interpreter's exit would
     otherwise wait for it."""
-    with _LOCK:
-        if "pool" not in _POOL:
-            import multiprocessing
+    if "pool" not in _POOL:
+        import multiprocessing
 
-            from batchveh.engines.mujoco import cpus
+        from batchveh.engines.mujoco import cpus
 
-            n = max(1, min(len(STAGES) + len(FILE_MODULES), cpus() - 1))
-            _POOL["n"] = n
-            _POOL["pool"] = multiprocessing.get_context("spawn").Pool(n)
-        return _POOL["pool"]
+        n = max(1, min(len(STAGES) + len(FILE_MODULES), cpus() - 1))
+        _POOL["n"] = n
+        _POOL["pool"] = multiprocessing.get_context("spawn").Pool(n)
+    return _POOL["pool"]
 
 
 def cold() -> bool:
@@ -144,39 +137,16 @@ def cold() -> bool:
 
 def start_workers(device: str) -> None:
     """Start the worker processes now and let each import MuJoCo Warp and open `device` (about 5 s on an
-    H100 host), so that they are ready when the engine's first chunk has its model (AheadBuild). Once per pool:
-    a second call (the engine's, after `start_early`) finds them started."""
-    with _LOCK:
-        if _POOL.get("warming"):
-            return
-        pool = _workers()
-        _POOL["warming"] = [pool.apply_async(_warm, (device,)) for _ in range(_POOL["n"])]
-
-
-def start_early(device: str = "cuda:0") -> threading.Thread:
-    """`start_workers` on a thread, for a command line that will run the warp engine on `device`, before it starts
-    JAX's GPU backend and builds the engine: the workers' imports then overlap the command's own (on one H200
-    they were ready about 12 s into a first run when the engine started them). Nothing starts on a machine that
-    built a vehicle's kernels before (`cold`), with BATCHVEH_WARP_PREBUILD=0, or where no process may be
-    spawned; `stop_workers` lets them go where the engine turns out not to need them."""
-
-    def go() -> None:
-        try:
-            if enabled() and may_spawn() and cold():
-                start_workers(device)
-        except Exception:  # noqa: BLE001 - a head start only: the first launch builds what is missing
-            stop_workers()
-
-    thread = threading.Thread(target=go, name="batchveh-warp-workers", daemon=True)
-    thread.start()
-    return thread
+    H100 host), so that they are ready when the engine's first chunk has its model (AheadBuild)."""
+    pool = _workers()
+    for _ in range(_POOL["n"]):
+        pool.apply_async(_warm, (device,))
 
 
 def stop_workers() -> None:
     """Let the worker processes go (those `start_workers` began for a model that turned out not to need them)."""
-    with _LOCK:
-        pool = _POOL.pop("pool", None)
-        _POOL.clear()
+    pool = _POOL.pop("pool", None)
+    _POOL.clear()
     if pool is not None:
         pool.terminate()  # idle by now, or a build past WAIT_S: it ends here, not at the interpreter's exit
 
@@ -289,9 +259,6 @@ def _build(kind: str, name: str, payload: bytes, device: str) -> tuple[str, floa
     import warp
 
     t0 = time.perf_counter()
-    if (kind, name) != ("stage", STAGES[0]):
-        with contextlib.suppress(OSError):  # the critical path (the solver's stage) and JAX's compile go first
-            os.nice(NICE)
     with warp.ScopedLogLevel(warp.LOG_ERROR):
         warp.init()
         mjw = importlib.import_module(MUJOCO_WARP)  # registers its per-file modules with Warp
