@@ -317,9 +317,9 @@ ROWS = [
     Row(
         "Two GPUs without Ray: `--executor gpus` (one process per GPU; the default on a host with several) against "
         "one GPU in-process (CUDA_VISIBLE_DEVICES=0), end to end, alternated pairs",
-        ["h100x2-gpu-processes.json", "h200x2-gpu-processes.json"],
+        ["h100x2-gpu-processes.json", "h100x2-gpu-processes-repeat.json", "h200x2-gpu-processes.json"],
         _gpu_processes,
-        "two H100s; two H200s (32 cores)",
+        "two H100s (two hosts); two H200s (32 cores)",
         "`python benchmarks/ray_gpus.py --gpu-processes OUT --rounds-1m 1 --rounds-100k 2` (the H200 run: "
         "`--gpus-chunk-size 66816`, the chunk before)",
     ),
