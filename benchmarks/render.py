@@ -406,8 +406,8 @@ ROWS = [
         "(`engines/warp_build.py`) against each at its first launch (serial)",
         ["h200-first-gpu-run.json"],
         _gpu_start,
-        "one H200, then one H100 twice; 16 cores each",
-        "`python benchmarks/gpu_start.py benchmarks/slope_100k.yaml --fresh --rounds 1`",
+        "one H200, then one H100 twice, then another H200; 16 cores each",
+        "`python benchmarks/gpu_start.py benchmarks/slope_100k.yaml --fresh --rounds 1` (the last: `--warm-runs 2`)",
     ),
 ]
 
