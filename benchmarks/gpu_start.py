@@ -51,6 +51,14 @@ def main():
     ap.add_argument("--fresh", action="store_true", help="first runs on empty caches, the ahead build against serial")
     ap.add_argument("--ways", default="serial,ahead", help="with --fresh: the ways to run, comma-separated")
     ap.add_argument("--warm-runs", type=int, default=1, help="with --fresh: warm runs after each first run")
+    ap.add_argument(
+        "--extra-way",
+        action="append",
+        default=[],
+        metavar="NAME:KEY=VALUE,...",
+        help="with --fresh: another way, the default one with these environment variables (e.g. "
+        "workers6:BATCHVEH_WARP_WORKERS=6)",
+    )
     args = ap.parse_args()
     if args.fresh:
         return fresh(args)
@@ -124,6 +132,9 @@ def _landed(cache: Path, start: float) -> list[list]:
 def fresh(args) -> None:
     ways = {"serial": {"BATCHVEH_WARP_PREBUILD": "0"}, "ahead": {}}
     ways = {k: v for k, v in ways.items() if k in args.ways.split(",")}
+    for extra in args.extra_way:  # NAME:KEY=VALUE[,KEY=VALUE...]
+        name, _, pairs = extra.partition(":")
+        ways[name] = dict(p.split("=", 1) for p in pairs.split(",") if p)
     runs = []
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(args.rounds):

@@ -148,3 +148,85 @@ def test_workers_past_their_time_are_ended():
         warp_build.stop_workers()
     assert time.perf_counter() - t0 < 20
     assert not [p for p in multiprocessing.active_children() if "PoolWorker" in p.name]
+
+
+def test_the_command_line_starts_the_solver_builder_only_for_a_local_warp_run(monkeypatch):
+    """`python -m batchveh.sweep` starts the solver stage's builder before JAX's GPU backend only where the warp
+    engine may run here: a backend of auto or warp, no Ray, a local GPU, warp-lang installed."""
+    import importlib.util
+
+    from batchveh import sweep
+    from batchveh.sweeping import cluster
+
+    find_spec, have, gpus = importlib.util.find_spec, {"warp": True}, ["0"]
+
+    def spec_of(name, *a):
+        return (object() if have["warp"] else None) if name == "warp" else find_spec(name, *a)
+
+    monkeypatch.setattr(importlib.util, "find_spec", spec_of)
+    monkeypatch.setattr(cluster, "local_gpus", lambda: gpus)
+    assert sweep.warp_solver_early("auto", None)
+    assert sweep.warp_solver_early("warp", "gpus")
+    assert not sweep.warp_solver_early("mujoco", None)
+    assert not sweep.warp_solver_early("mjx", None)
+    assert not sweep.warp_solver_early("warp", "ray")  # Ray's workers build their own
+    monkeypatch.setenv("BATCHVEH_WARP_EARLY", "0")
+    assert not sweep.warp_solver_early("warp", None)
+    monkeypatch.delenv("BATCHVEH_WARP_EARLY")
+    have["warp"] = False
+    assert not sweep.warp_solver_early("warp", None)
+    have["warp"], gpus[:] = True, []
+    assert not sweep.warp_solver_early("auto", None)
+
+
+class _FakePool:
+    def __init__(self):
+        self.tasks, self.ended = [], False
+
+    def apply_async(self, fn, args):
+        self.tasks.append((fn.__name__, args[:2]))
+
+    def terminate(self):
+        self.ended = True
+
+
+def test_the_solver_stage_goes_to_its_early_process(monkeypatch):
+    """With the command line's solver process started for the engine's device, the solver's stage runs there and
+    every other task on the engine's workers; for another device, all of them on the workers."""
+    b = _batch({"slope_deg": np.array([0.0, 5.0])})
+    args = (b.model, {"opt.gravity": 2}, 96, CONTACTS_PER_WORLD)
+    workers = _FakePool()
+    monkeypatch.setattr(warp_build, "_workers", lambda: workers)
+    for device, solver_gets in (("cpu", [("_build", ("stage", warp_build.STAGES[0]))]), ("cuda:1", [])):
+        solver = _FakePool()
+        warp_build._SOLVER.clear()
+        warp_build._SOLVER.update(pool=solver, device="cpu")
+        workers.tasks.clear()
+        warp_build.AheadBuild(*args, device=device)
+        assert solver.tasks == solver_gets
+        assert len(workers.tasks) == len(warp_build.STAGES) + len(warp_build.FILE_MODULES) - len(solver_gets)
+        warp_build.stop_workers()
+        assert solver.ended and not warp_build._SOLVER.get("pool")
+
+
+def test_a_solver_process_is_started_only_on_a_cold_machine_and_not_after_the_stop(monkeypatch):
+    """A machine that built a vehicle's kernels before starts no solver process; nor does a late start, after
+    the engine let its workers go."""
+    import multiprocessing
+
+    started = []
+    monkeypatch.setattr(warp_build, "may_spawn", lambda: True)
+    monkeypatch.setattr(multiprocessing, "get_context", lambda _: started.append(1))  # would start a process
+    monkeypatch.setattr(warp_build, "cold", lambda: False)
+    warp_build._SOLVER.clear()
+    warp_build.start_solver("cpu").join(10)
+    assert not started and "pool" not in warp_build._SOLVER
+    monkeypatch.setattr(warp_build, "cold", lambda: True)
+    warp_build.start_solver("cpu").join(10)  # cold: it starts one (here a stand-in that fails, and is let go)
+    assert started == [1] and "pool" not in warp_build._SOLVER
+    started.clear()
+    warp_build._SOLVER.clear()
+    warp_build.stop_workers()  # the engine is done: a start that comes this late starts nothing
+    warp_build.start_solver("cpu").join(10)
+    assert not started and "pool" not in warp_build._SOLVER
+    warp_build._SOLVER.clear()

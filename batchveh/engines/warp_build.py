@@ -28,6 +28,7 @@ from __future__ import annotations
 import hashlib
 import os
 import pickle
+import threading
 import time
 from typing import Any
 
@@ -110,10 +111,14 @@ def marker(k: str) -> str:
 
 
 _POOL: dict[str, Any] = {}  # the worker processes, started ahead (`start_workers`) or by AheadBuild
+# the solver stage's own process, started by the command line before JAX's GPU backend (`start_solver`)
+_SOLVER: dict[str, Any] = {}
+_LOCK = threading.Lock()  # `start_solver` runs on the command line's thread, `stop_workers` on the engine's
 
 
 def _workers():
-    """The pool of worker processes: one per task, at most a core each but one (left to JAX's compile). A
+    """The pool of worker processes: one per task, at most a core each but one (left to JAX's compile) and at
+    most BATCHVEH_WARP_WORKERS where that is set (benchmarks/gpu_start.py --extra-way compares counts). A
     multiprocessing Pool: `terminate` ends a build that overran WAIT_S, where the interpreter's exit would
     otherwise wait for it."""
     if "pool" not in _POOL:
@@ -121,8 +126,8 @@ def _workers():
 
         from batchveh.engines.mujoco import cpus
 
-        n = max(1, min(len(STAGES) + len(FILE_MODULES), cpus() - 1))
-        _POOL["n"] = n
+        n = max(1, min(len(STAGES) + len(FILE_MODULES), cpus() - 1, int(os.environ.get("BATCHVEH_WARP_WORKERS", 64))))
+        _POOL["n"], _POOL["started"] = n, time.time()
         _POOL["pool"] = multiprocessing.get_context("spawn").Pool(n)
     return _POOL["pool"]
 
@@ -139,16 +144,46 @@ def start_workers(device: str) -> None:
     """Start the worker processes now and let each import MuJoCo Warp and open `device` (about 5 s on an
     H100 host), so that they are ready when the engine's first chunk has its model (AheadBuild)."""
     pool = _workers()
-    for _ in range(_POOL["n"]):
-        pool.apply_async(_warm, (device,))
+    _POOL["warming"] = [pool.apply_async(_warm, (device,)) for _ in range(_POOL["n"])]
+
+
+def start_solver(device: str = "cuda:0") -> threading.Thread:
+    """On a thread: where this machine never built a vehicle's kernels (`cold`), start the solver stage's own
+    process now, before the command line starts JAX's GPU backend, and let it import MuJoCo Warp and open
+    `device`. The solver's stage is the critical path of a first run (15-22 s of modules built one after
+    another), and the engine's workers only finish importing MuJoCo Warp 5-7 s after the engine has its model
+    (benchmarks/results/h200-first-gpu-run.json); this one process is ready by then. Only one: all the workers
+    started this early slowed every part (archive.json: h100-first-gpu-run-early-start.json)."""
+
+    def go() -> None:
+        try:
+            if enabled() and may_spawn() and cold():
+                import multiprocessing
+
+                with _LOCK:
+                    if _SOLVER.get("closed"):
+                        return
+                    pool = _SOLVER["pool"] = multiprocessing.get_context("spawn").Pool(1)
+                    _SOLVER.update(device=device, started=time.time(), warming=[pool.apply_async(_warm, (device,))])
+        except Exception:  # noqa: BLE001 - a head start only: the engine's workers build what this one does not
+            stop_workers()
+
+    thread = threading.Thread(target=go, name="batchveh-warp-solver", daemon=True)
+    thread.start()
+    return thread
 
 
 def stop_workers() -> None:
-    """Let the worker processes go (those `start_workers` began for a model that turned out not to need them)."""
+    """Let the worker processes go (those started for a model that turned out not to need them, or done)."""
     pool = _POOL.pop("pool", None)
     _POOL.clear()
-    if pool is not None:
-        pool.terminate()  # idle by now, or a build past WAIT_S: it ends here, not at the interpreter's exit
+    with _LOCK:
+        solver = _SOLVER.pop("pool", None)
+        _SOLVER.clear()
+        _SOLVER["closed"] = True  # a late `start_solver` thread starts nothing now
+    for p in (pool, solver):
+        if p is not None:
+            p.terminate()  # idle by now, or a build past WAIT_S: it ends here, not at the interpreter's exit
 
 
 class AheadBuild:
@@ -157,35 +192,45 @@ class AheadBuild:
 
     def __init__(self, model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int, device: str):
         self.marker = marker(key(model, batched, njmax, naconmax))
-        self.start = time.perf_counter()
+        self.start, self.created = time.perf_counter(), time.time()
         payload = pickle.dumps((model, sized(batched), njmax, naconmax))
         tasks = [("stage", s) for s in STAGES] + [("module", m) for m in FILE_MODULES]
-        self.pool = _workers()
-        self.results = [self.pool.apply_async(_build, (kind, name, payload, device)) for kind, name in tasks]
+        with _LOCK:
+            solver = _SOLVER.get("pool") if _SOLVER.get("device") == device else None
+        self.results = []
+        if solver is not None:  # the solver's stage on its own process, started by the command line
+            self.results.append(solver.apply_async(_build, (*tasks.pop(0), payload, device)))
+        pool = _workers()
+        self.results += [pool.apply_async(_build, (kind, name, payload, device)) for kind, name in tasks]
 
     def wait(self, timeout: float = WAIT_S) -> dict[str, Any]:
         """Wait for the workers (at most `timeout` s), then end them; returns what each took (s) or why it
         failed. A failed or late part only means its modules build at their first launch."""
-        deadline = time.perf_counter() + timeout
-        report = {}
+        deadline, waited = time.perf_counter() + timeout, time.time()
+        report, marks = {}, {}
         for i, r in enumerate(self.results):
             r.wait(max(0.0, deadline - time.perf_counter()))
             if not r.ready():
                 report[f"task {i}"] = "not done in time"
                 continue
             try:
-                name, seconds = r.get()
+                name, seconds, marks[name] = r.get()
                 report[name] = round(seconds, 2)
             except Exception as err:  # noqa: BLE001 - a head start only: the first launch builds what is missing
                 report[f"task {i}"] = f"{type(err).__name__}: {err}"
+        warmed = [
+            w.get() for w in _POOL.get("warming", []) + _SOLVER.get("warming", []) if w.ready() and w.successful()
+        ]
+        times = {"pool_started": _POOL.get("started"), "solver_started": _SOLVER.get("started")}
+        times.update(created=self.created, waited=waited)
         stop_workers()
         report["wall_s"] = round(time.perf_counter() - self.start, 2)
         log = os.environ.get("BATCHVEH_WARP_AHEAD_LOG")  # for benchmarks/gpu_start.py: what each part took
-        if log:
+        if log:  # with when (time.time()) this build began, each worker's warm-up and each task's steps
             import json
 
             with open(log, "a") as f:
-                f.write(json.dumps(report) + "\n")
+                f.write(json.dumps({**report, **times, "warm": warmed, "marks": marks}) + "\n")
         return report
 
     def done(self) -> None:
@@ -238,43 +283,50 @@ def load_file_modules(device: str) -> None:
 _WORLD: dict[str, Any] = {}  # in a worker process: the one-world model and data it built, per payload
 
 
-def _warm(device: str) -> None:
-    """A worker's start: MuJoCo Warp imported, `device` opened."""
+def _warm(device: str) -> tuple[int, float, float, float]:
+    """A worker's start: MuJoCo Warp imported, `device` opened. Returns (pid, start, imported, end) (time.time())."""
     import importlib
 
+    t0 = time.time()
     import warp
 
     with warp.ScopedLogLevel(warp.LOG_ERROR):
         warp.init()
         importlib.import_module(MUJOCO_WARP)
+        imported = time.time()
         warp.get_device(device).context  # noqa: B018 - opens the device's CUDA context here, once
+    end = time.time()
     time.sleep(0.5)  # held a moment: each warm-up then lands on a process of its own
+    return os.getpid(), t0, imported, end
 
 
-def _build(kind: str, name: str, payload: bytes, device: str) -> tuple[str, float]:
+def _build(kind: str, name: str, payload: bytes, device: str) -> tuple[str, float, dict[str, Any]]:
     """One worker's task: load per-file module `name`, or run MuJoCo Warp's stage `name` once on a
-    one-world copy of the model (its data from MuJoCo C after SETTLE_STEPS steps). Returns (what, s)."""
+    one-world copy of the model (its data from MuJoCo C after SETTLE_STEPS steps). Returns (what, s, marks):
+    marks are when (time.time()) it began, had its model (a stage) and ended, and the worker's pid."""
     import importlib
 
     import warp
 
     t0 = time.perf_counter()
+    marks = {"pid": os.getpid(), "start": time.time()}
     with warp.ScopedLogLevel(warp.LOG_ERROR):
         warp.init()
         mjw = importlib.import_module(MUJOCO_WARP)  # registers its per-file modules with Warp
         if kind == "module":
             importlib.import_module(name)
             warp.load_module(name, device=device, recursive=False)
-            return name.rsplit(".", 1)[-1], time.perf_counter() - t0
+            return name.rsplit(".", 1)[-1], time.perf_counter() - t0, {**marks, "end": time.time()}
         with warp.ScopedDevice(device):
             m, d = _world(mjw, payload)
+            marks["world"] = time.time()
             stage = getattr(mjw, name)
             if name == "fwd_acceleration":
                 stage(m, d, factorize=True)  # as forward() calls it: M's factor-solve
             else:
                 stage(m, d)
             warp.synchronize_device(device)
-    return name, time.perf_counter() - t0
+    return name, time.perf_counter() - t0, {**marks, "end": time.time()}
 
 
 def _world(mjw, payload: bytes):
