@@ -16,6 +16,12 @@ workers call MuJoCo Warp's public functions (`mujoco_warp.fwd_acceleration`, `so
 `warp.load_module`. A module that no stage reaches still builds at its first launch, as before: what
 the engine computes does not change, only where its kernels were built.
 
+The solver's stage, the critical path (its modules build one after another: 15-23 s), gets a process of its own
+that `python -m batchveh.sweep` starts before JAX's GPU backend (`start_solver`), so that it has imported MuJoCo
+Warp by the time the engine has its model: 6-9 s off a first run on slower H100 hosts
+(benchmarks/results/h100-first-gpu-run-solver-early.json). The other workers start with the engine: all of
+them started that early slowed every part (archive.json: h100-first-gpu-run-early-start.json).
+
 A marker in Warp's kernel cache (`batchveh-ahead-<key>`, keyed on MuJoCo's and Warp's versions, the
 model's structure and the chunk's batched fields) records that a vehicle's kernels were built, so a
 warm machine starts no workers; deleting Warp's cache (`python -c "import warp; warp.clear_kernel_cache()"`)
