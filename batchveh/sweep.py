@@ -98,24 +98,6 @@ def enable_compile_cache() -> None:
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 
-def warp_solver_early(backend: str, executor: str | None) -> bool:
-    """Whether the command line should start the warp engine's solver-stage builder (engines/warp_build.py)
-    before anything else: `backend` (as given) may resolve to warp, this process runs chunks (not Ray), a local
-    NVIDIA GPU is there and warp-lang is installed. Checked without starting JAX or CUDA. BATCHVEH_WARP_EARLY=0
-    leaves it to the engine (benchmarks/gpu_start.py --fresh compares both)."""
-    import importlib.util
-
-    from batchveh.sweeping.cluster import local_gpus
-
-    return (
-        backend in ("auto", "warp")
-        and executor != "ray"
-        and os.environ.get("BATCHVEH_WARP_EARLY", "1") != "0"
-        and bool(local_gpus())
-        and importlib.util.find_spec("warp") is not None
-    )
-
-
 def init_warp_without_cuda() -> None:
     """Initialise Warp quietly on a machine without the CUDA driver (process-wide: the CLI's `main` calls
     it before a warp sweep). Warp's native library looks for libcuda when it initialises and, where
@@ -463,17 +445,10 @@ def main(argv: list[str] | None = None) -> int:
             return EXIT_OK
         if args.plots and "://" in str(args.out or spec.output):
             raise ConfigError("--plots: figures are written to a local folder; give a local --out for them")
-        early = warp_solver_early(args.backend or spec.backend, args.executor)
-        if early:  # before JAX's GPU backend starts (resolve_backend): its imports overlap this one's
-            from batchveh.engines import warp_build
-
-            warp_build.start_solver()
         enable_compile_cache()
         from batchveh.engines import resolve_backend
 
         backend = resolve_backend(args.backend or spec.backend)
-        if early and backend != "warp":
-            warp_build.stop_workers()
         if backend == "warp" and args.executor != "ray":
             init_warp_without_cuda()
         executor = None
@@ -525,8 +500,6 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if started_ray:
             cluster.disconnect()
-        if "batchveh.engines.warp_build" in sys.modules:  # its workers, where the engine did not end them
-            sys.modules["batchveh.engines.warp_build"].stop_workers()
     if s["engine_warnings"]:
         print(f"MuJoCo reported unstable simulations (marked diverged), e.g.: {s['engine_warnings'][0]}")
     stuck = "".join(f"{s[k]} {k}, " for k in ("stuck", "short") if s[k])  # obstacle sweeps only

@@ -57,7 +57,7 @@ def main():
         default=[],
         metavar="NAME:KEY=VALUE,...",
         help="with --fresh: another way, the default one with these environment variables (e.g. "
-        "workers6:BATCHVEH_WARP_WORKERS=6)",
+        "nocache:JAX_ENABLE_COMPILATION_CACHE=false)",
     )
     args = ap.parse_args()
     if args.fresh:

@@ -187,21 +187,6 @@ def _gpu_start(d: dict) -> str:
     return f"first run on empty caches, built ahead / serial, one pair per call: **{firsts}**; warm runs {warms}"
 
 
-def _solver_early(d: dict) -> str:
-    """The solver stage's builder started by the command line against by the engine, per call: first runs."""
-    out = []
-    for call in sorted({r["call"] for r in d["runs"]}):
-        first = {}
-        for r in d["runs"]:
-            if r["call"] == call and r["kind"] == "first":
-                first.setdefault(r["way"], []).append(f"{r['wall_s']:.1f}")
-        text = f"{' / '.join(first['ahead'])} s against {' / '.join(first['late'])} s"
-        if "serial" in first:
-            text += f" (serial {first['serial'][0]} s)"
-        out.append(text)
-    return "first run started early / by the engine: **" + "; ".join(out) + "**"
-
-
 def _gpu_processes(*docs: dict) -> str:
     """--executor gpus on two GPUs against one GPU in-process, per file (machine): the 1M pairs, the 100k pairs."""
 
@@ -423,16 +408,6 @@ ROWS = [
         _gpu_start,
         "one H200, then one H100 twice, then another H200; 16 cores each",
         "`python benchmarks/gpu_start.py benchmarks/slope_100k.yaml --fresh --rounds 1` (the last: `--warm-runs 2`)",
-    ),
-    Row(
-        "The first GPU run, the solver stage's builder started by the command line before JAX's GPU backend "
-        "(`warp_build.start_solver`, the default) against every builder started by the engine "
-        "(BATCHVEH_WARP_EARLY=0), alternated, each on empty caches of its own",
-        ["h100-first-gpu-run-solver-early.json"],
-        _solver_early,
-        "one H100 per call, two hosts slower than the row above's (serial 106 s); 16 cores",
-        "`python benchmarks/gpu_start.py benchmarks/slope_100k.yaml --fresh --rounds 2 --ways ahead --extra-way "
-        "late:BATCHVEH_WARP_EARLY=0` (call 2: `--rounds 1 --ways ahead,serial`)",
     ),
 ]
 

@@ -16,12 +16,6 @@ workers call MuJoCo Warp's public functions (`mujoco_warp.fwd_acceleration`, `so
 `warp.load_module`. A module that no stage reaches still builds at its first launch, as before: what
 the engine computes does not change, only where its kernels were built.
 
-The solver's stage, the critical path (its modules build one after another: 15-23 s), gets a process of its own
-that `python -m batchveh.sweep` starts before JAX's GPU backend (`start_solver`), so that it has imported MuJoCo
-Warp by the time the engine has its model: 6-9 s off a first run on slower H100 hosts
-(benchmarks/results/h100-first-gpu-run-solver-early.json). The other workers start with the engine: all of
-them started that early slowed every part (archive.json: h100-first-gpu-run-early-start.json).
-
 A marker in Warp's kernel cache (`batchveh-ahead-<key>`, keyed on MuJoCo's and Warp's versions, the
 model's structure and the chunk's batched fields) records that a vehicle's kernels were built, so a
 warm machine starts no workers; deleting Warp's cache (`python -c "import warp; warp.clear_kernel_cache()"`)
@@ -34,7 +28,6 @@ from __future__ import annotations
 import hashlib
 import os
 import pickle
-import threading
 import time
 from typing import Any
 
@@ -117,14 +110,10 @@ def marker(k: str) -> str:
 
 
 _POOL: dict[str, Any] = {}  # the worker processes, started ahead (`start_workers`) or by AheadBuild
-# the solver stage's own process, started by the command line before JAX's GPU backend (`start_solver`)
-_SOLVER: dict[str, Any] = {}
-_LOCK = threading.Lock()  # `start_solver` runs on the command line's thread, `stop_workers` on the engine's
 
 
 def _workers():
-    """The pool of worker processes: one per task, at most a core each but one (left to JAX's compile) and at
-    most BATCHVEH_WARP_WORKERS where that is set (benchmarks/gpu_start.py --extra-way compares counts). A
+    """The pool of worker processes: one per task, at most a core each but one (left to JAX's compile). A
     multiprocessing Pool: `terminate` ends a build that overran WAIT_S, where the interpreter's exit would
     otherwise wait for it."""
     if "pool" not in _POOL:
@@ -132,7 +121,7 @@ def _workers():
 
         from batchveh.engines.mujoco import cpus
 
-        n = max(1, min(len(STAGES) + len(FILE_MODULES), cpus() - 1, int(os.environ.get("BATCHVEH_WARP_WORKERS", 64))))
+        n = max(1, min(len(STAGES) + len(FILE_MODULES), cpus() - 1))
         _POOL["n"], _POOL["started"] = n, time.time()
         _POOL["pool"] = multiprocessing.get_context("spawn").Pool(n)
     return _POOL["pool"]
@@ -153,43 +142,12 @@ def start_workers(device: str) -> None:
     _POOL["warming"] = [pool.apply_async(_warm, (device,)) for _ in range(_POOL["n"])]
 
 
-def start_solver(device: str = "cuda:0") -> threading.Thread:
-    """On a thread: where this machine never built a vehicle's kernels (`cold`), start the solver stage's own
-    process now, before the command line starts JAX's GPU backend, and let it import MuJoCo Warp and open
-    `device`. The solver's stage is the critical path of a first run (15-22 s of modules built one after
-    another), and the engine's workers only finish importing MuJoCo Warp 5-7 s after the engine has its model
-    (benchmarks/results/h200-first-gpu-run.json); this one process is ready by then. Only one: all the workers
-    started this early slowed every part (archive.json: h100-first-gpu-run-early-start.json)."""
-
-    def go() -> None:
-        try:
-            if enabled() and may_spawn() and cold():
-                import multiprocessing
-
-                with _LOCK:
-                    if _SOLVER.get("closed"):
-                        return
-                    pool = _SOLVER["pool"] = multiprocessing.get_context("spawn").Pool(1)
-                    _SOLVER.update(device=device, started=time.time(), warming=[pool.apply_async(_warm, (device,))])
-        except Exception:  # noqa: BLE001 - a head start only: the engine's workers build what this one does not
-            stop_workers()
-
-    thread = threading.Thread(target=go, name="batchveh-warp-solver", daemon=True)
-    thread.start()
-    return thread
-
-
 def stop_workers() -> None:
-    """Let the worker processes go (those started for a model that turned out not to need them, or done)."""
+    """Let the worker processes go (those `start_workers` began for a model that turned out not to need them)."""
     pool = _POOL.pop("pool", None)
     _POOL.clear()
-    with _LOCK:
-        solver = _SOLVER.pop("pool", None)
-        _SOLVER.clear()
-        _SOLVER["closed"] = True  # a late `start_solver` thread starts nothing now
-    for p in (pool, solver):
-        if p is not None:
-            p.terminate()  # idle by now, or a build past WAIT_S: it ends here, not at the interpreter's exit
+    if pool is not None:
+        pool.terminate()  # idle by now, or a build past WAIT_S: it ends here, not at the interpreter's exit
 
 
 class AheadBuild:
@@ -201,13 +159,8 @@ class AheadBuild:
         self.start, self.created = time.perf_counter(), time.time()
         payload = pickle.dumps((model, sized(batched), njmax, naconmax))
         tasks = [("stage", s) for s in STAGES] + [("module", m) for m in FILE_MODULES]
-        with _LOCK:
-            solver = _SOLVER.get("pool") if _SOLVER.get("device") == device else None
-        self.results = []
-        if solver is not None:  # the solver's stage on its own process, started by the command line
-            self.results.append(solver.apply_async(_build, (*tasks.pop(0), payload, device)))
         pool = _workers()
-        self.results += [pool.apply_async(_build, (kind, name, payload, device)) for kind, name in tasks]
+        self.results = [pool.apply_async(_build, (kind, name, payload, device)) for kind, name in tasks]
 
     def wait(self, timeout: float = WAIT_S) -> dict[str, Any]:
         """Wait for the workers (at most `timeout` s), then end them; returns what each took (s) or why it
@@ -224,11 +177,8 @@ class AheadBuild:
                 report[name] = round(seconds, 2)
             except Exception as err:  # noqa: BLE001 - a head start only: the first launch builds what is missing
                 report[f"task {i}"] = f"{type(err).__name__}: {err}"
-        warmed = [
-            w.get() for w in _POOL.get("warming", []) + _SOLVER.get("warming", []) if w.ready() and w.successful()
-        ]
-        times = {"pool_started": _POOL.get("started"), "solver_started": _SOLVER.get("started")}
-        times.update(created=self.created, waited=waited)
+        warmed = [w.get() for w in _POOL.get("warming", []) if w.ready() and w.successful()]
+        times = {"pool_started": _POOL.get("started"), "created": self.created, "waited": waited}
         stop_workers()
         report["wall_s"] = round(time.perf_counter() - self.start, 2)
         log = os.environ.get("BATCHVEH_WARP_AHEAD_LOG")  # for benchmarks/gpu_start.py: what each part took
