@@ -171,8 +171,7 @@ class InProcess:
         return self.runner.run_here(todo, self.folder, finished, phase)
 
     def engine_stats(self) -> dict[str, Any]:
-        e = self.runner.engine
-        return {"compile_s": e.compile_s, "compiles": e.compiles, "warnings": list(getattr(e, "warnings", []))}
+        return self.runner.engine_stats()
 
     def close(self) -> None:
         pass

@@ -69,6 +69,23 @@ def sized(batched: dict[str, int]) -> dict[str, int]:
     return {k: (n if k in SIZED else 1) for k, n in batched.items()}
 
 
+# the model's integer arrays that decide which kernels MuJoCo Warp makes (types, trees, transmissions), in `key`
+STRUCTURE = (
+    "geom_type",
+    "geom_condim",
+    "geom_contype",
+    "geom_conaffinity",
+    "jnt_type",
+    "body_parentid",
+    "dof_parentid",
+    "actuator_trntype",
+    "actuator_dyntype",
+    "actuator_gaintype",
+    "actuator_biastype",
+    "sensor_type",
+)
+
+
 def key(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int) -> str:
     """What decides which kernels MuJoCo Warp makes for a model: MuJoCo's and Warp's versions, the
     model's sizes, types and options, the batched fields with their leading sizes, the constraint
@@ -80,18 +97,7 @@ def key(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: in
         mujoco.__version__,
         warp.__version__,
         {k: getattr(model, k) for k in dir(model) if k.startswith("n") and isinstance(getattr(model, k), int)},
-        model.geom_type.tolist(),
-        model.geom_condim.tolist(),
-        model.geom_contype.tolist(),
-        model.geom_conaffinity.tolist(),
-        model.jnt_type.tolist(),
-        model.body_parentid.tolist(),
-        model.dof_parentid.tolist(),
-        model.actuator_trntype.tolist(),
-        model.actuator_dyntype.tolist(),
-        model.actuator_gaintype.tolist(),
-        model.actuator_biastype.tolist(),
-        model.sensor_type.tolist(),
+        *(getattr(model, field).tolist() for field in STRUCTURE),
         [opt.timestep, opt.solver, opt.cone, opt.integrator, opt.jacobian, opt.iterations, opt.ls_iterations],
         [opt.disableflags, opt.enableflags],
         sorted(sized(batched).items()),

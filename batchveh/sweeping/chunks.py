@@ -174,6 +174,11 @@ class ChunkRunner:
                 phase(f"{where}: writing")
                 yield c, table
 
+    def engine_stats(self) -> dict[str, Any]:
+        """This process's engine: its compile time, its compiles and MuJoCo's first warnings."""
+        e = self.engine
+        return {"compile_s": e.compile_s, "compiles": e.compiles, "warnings": list(getattr(e, "warnings", []))}
+
     def run_here(
         self,
         todo: list[int],

@@ -152,8 +152,17 @@ class ChunkWorker:
         return self.folder.write_file(c, self.runner.run(c))
 
     def engine_stats(self) -> dict[str, Any]:
-        e = self.runner.engine
-        return {"compile_s": e.compile_s, "compiles": e.compiles, "warnings": list(getattr(e, "warnings", []))}
+        return self.runner.engine_stats()
+
+
+def merged_stats(stats: list[dict[str, Any]]) -> dict[str, Any]:
+    """Engine statistics of several processes (`ChunkRunner.engine_stats` each) as one: the longest compile,
+    the compiles summed, MuJoCo's first five warnings."""
+    return {
+        "compile_s": max((s["compile_s"] for s in stats), default=0.0),
+        "compiles": sum(s["compiles"] for s in stats),
+        "warnings": [w for s in stats for w in s["warnings"]][:5],
+    }
 
 
 def _cpus() -> int:
@@ -734,11 +743,7 @@ class RayExecutor:
     def engine_stats(self) -> dict[str, Any]:
         """Compiles summed over the workers (this process's included), the longest compile,
         MuJoCo's first warnings."""
-        stats = []
-        if self.runner is not None:
-            e = self.runner.engine
-            warnings = list(getattr(e, "warnings", []))
-            stats.append({"compile_s": e.compile_s, "compiles": e.compiles, "warnings": warnings})
+        stats = [] if self.runner is None else [self.runner.engine_stats()]
         if self.ready:
             import ray
             from ray.exceptions import GetTimeoutError, RayActorError
@@ -748,11 +753,7 @@ class RayExecutor:
                     stats.append(ray.get(a.engine_stats.remote(), timeout=30))
                 except (RayActorError, GetTimeoutError, AttributeError):
                     pass  # gone, or its engine not built again after a restart
-        return {
-            "compile_s": max((s["compile_s"] for s in stats), default=0.0),
-            "compiles": sum(s["compiles"] for s in stats),
-            "warnings": [w for s in stats for w in s["warnings"]][:5],
-        }
+        return merged_stats(stats)
 
     def close(self) -> None:
         if not self.actors:

@@ -60,6 +60,7 @@ from batchveh.sweeping.cluster import (
     Timeline,
     alone_reason,
     local_gpus,
+    merged_stats,
     shared_chunk,
 )
 
@@ -427,15 +428,8 @@ class GpuProcesses:
     def engine_stats(self) -> dict[str, Any]:
         """Compiles summed over this process and the workers (each worker's as of its last chunk), the longest
         compile, MuJoCo's first warnings."""
-        e = self.runner.engine
-        stats = [{"compile_s": e.compile_s, "compiles": e.compiles, "warnings": list(getattr(e, "warnings", []))}]
         with self._cond:
-            stats += [s.stats for s in self.slots if s.stats]
-        return {
-            "compile_s": max(s["compile_s"] for s in stats),
-            "compiles": sum(s["compiles"] for s in stats),
-            "warnings": [w for s in stats for w in s["warnings"]][:5],
-        }
+            return merged_stats([self.runner.engine_stats(), *(s.stats for s in self.slots if s.stats)])
 
     def close(self) -> None:
         """End the workers: those told to stop exit by themselves; the others (still starting, or running a
