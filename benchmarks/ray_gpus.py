@@ -332,9 +332,12 @@ def gpu_processes(
     warmup_n: int = 100_000,
     smoke: bool = False,
     gpus_chunk: int | None = None,
+    warm_chunks: tuple[int, ...] = (),
 ) -> dict:
     """Issue 33: --executor gpus against one GPU in-process, alternated (see the docstring). `gpus_chunk`: the
-    1,000,000-variant gpus sweeps' --chunk-size (default: the executor's, shared_chunk)."""
+    1,000,000-variant gpus sweeps' --chunk-size (default: the executor's, shared_chunk). `warm_chunks`: after
+    the warm-up, one in-process sweep of one chunk of each of these sizes (not timed in the pairs), so that
+    JAX's persistent compile cache holds each executable the pairs use: both peers start warm."""
     import statistics
 
     t_start = time.time()
@@ -389,6 +392,8 @@ def gpu_processes(
 
     if warmup_n:
         step(f"warmup_{warmup_n}_local", 150, warmup_n, "local", one)
+    for k in warm_chunks:
+        step(f"warm_chunk_{k}_local", 60, k, "local", one, ["--chunk-size", str(k)])
     for r in range(1, rounds_1m + 1):
         runs = [("local", f"1m_local_1gpu_{r}", one), ("gpus", f"1m_gpus_2gpu_{r}", two)]
         got = {}
@@ -478,6 +483,12 @@ def main():
         help="with --gpu-processes: --chunk-size of the 1,000,000-variant --executor gpus sweeps (default: "
         "the executor's own, 66,816 on two GPUs)",
     )
+    ap.add_argument(
+        "--warm-chunks",
+        default="",
+        help="with --gpu-processes: chunk sizes, comma-separated, each swept once in-process after the warm-up "
+        "so that the compile cache holds them (the pairs' shapes: 125184,100096 on two GPUs)",
+    )
     args = ap.parse_args()
     if args.gpu_processes:
         backend = args.backend if args.backend != "mjx" else "warp"
@@ -490,6 +501,7 @@ def main():
             args.warmup_n,
             args.smoke,
             args.gpus_chunk_size,
+            tuple(int(k) for k in args.warm_chunks.split(",") if k.strip()),
         )
         return None
     if args.two_gpus:

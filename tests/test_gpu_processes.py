@@ -20,7 +20,7 @@ from conftest import sweep_spec as _spec
 import batchveh
 from batchveh.sweep import main, run_sweep
 from batchveh.sweeping import gpus
-from batchveh.sweeping.chunks import ChunkRunner
+from batchveh.sweeping.chunks import Pipeline
 from batchveh.sweeping.results import ResultFolder
 from batchveh.sweeping.spec import load_spec
 
@@ -42,26 +42,27 @@ def _parts(out):
 
 def _patient(monkeypatch, ex):
     """This process runs its first chunk, then waits (up to 60 s) until the worker process is ready."""
-    run, calls = ChunkRunner.run, []
+    run, calls = Pipeline.simulate, []
 
-    def here(self, c):  # in this process only: the worker process imports its own ChunkRunner
+    def here(self, c):  # in this process only: the worker process imports its own Pipeline
         calls.append(c)
         deadline = time.time() + 60
         while len(calls) == 2 and not ex.workers_info and time.time() < deadline:
             time.sleep(0.01)
         return run(self, c)
 
-    monkeypatch.setattr(ChunkRunner, "run", here)
+    monkeypatch.setattr(Pipeline, "simulate", here)
 
 
-def _sweep(tmp_path, monkeypatch, name, **env):
+def _sweep(tmp_path, monkeypatch, name, chunk_size=2, **env):
     for k, v in env.items():
         monkeypatch.setenv(k, v)
     timeline = tmp_path / f"{name}.timeline.json"
     monkeypatch.setenv("BATCHVEH_TIMELINE", str(timeline))
     ex, notes, out = gpus.GpuProcesses(NAMES), [], tmp_path / name
     _patient(monkeypatch, ex)
-    s = run_sweep(load_spec(_spec(tmp_path)), out=out, chunk_size=2, progress=False, report=notes.append, executor=ex)
+    spec = load_spec(_spec(tmp_path))
+    s = run_sweep(spec, out=out, chunk_size=chunk_size, progress=False, report=notes.append, executor=ex)
     assert s["device"].startswith("this process and 1 worker process, each 1 CPU thread"), s["device"]
     assert not list(out.glob(".*.tmp"))
     assert json.loads(timeline.read_text())[-1]["event"] == "closed"  # written out as it happened
@@ -86,6 +87,58 @@ def test_equals_the_in_process_sweep(tmp_path, monkeypatch, reference):
     assert where["driver"] >= 1 and where["worker 0"] >= 1, where
     [info] = ex.workers_info
     assert info["gpu"] == "1" and info["pid"] != os.getpid()
+
+
+def test_each_process_holds_its_next_chunk_while_the_queue_is_long(tmp_path, monkeypatch, reference):
+    """Eight chunks of one variant: while the queue holds more chunks than the two processes, each is handed
+    its next chunk while it runs one (prepared ahead); the last two go to whichever is free first."""
+    s, ex, notes, out = _sweep(tmp_path, monkeypatch, "ahead", chunk_size=1)
+    assert s["rows"] == s["ran"] == 8 and not s["failed"] and not notes, (s, notes)
+    pd.testing.assert_frame_equal(batchveh.load(out), reference)
+    assert sorted(c for c, _ in _ends(ex)) == list(range(8))
+    held, most = set(), 0  # the worker's chunks handed and not yet ended
+    for e in ex.timeline:
+        if e.get("where") == "worker 0" and e["event"] in ("chunk handed", "chunk end"):
+            (held.add if e["event"] == "chunk handed" else held.remove)(e["chunk"])
+            most = max(most, len(held))
+    assert most == 2, ex.timeline
+
+
+def test_a_dead_worker_gives_back_every_chunk_it_held(tmp_path):
+    """Its chunk being written, the one it simulated and the one handed ahead go back to the front of the
+    queue; only the one it simulated counts an attempt."""
+    ex = gpus.GpuProcesses(NAMES, max_restarts=0)
+    notes = []
+    ex._note, ex._queue = notes.append, gpus.deque([7])
+    slot = gpus._Slot(0, "1")
+    ex.slots = [slot]
+    slot.state, slot.chunks, slot.running = "ready", [3, 4, 5], 4
+    slot.proc = type("Dead", (), {"join": lambda self: None, "exitcode": -9})()
+    slot.conn = type("Closed", (), {"close": lambda self: None})()
+    ex._died(slot)
+    assert list(ex._queue) == [4, 3, 5, 7]
+    assert ex._attempts == {4: 1} and slot.chunks == [] and slot.running is None
+    assert notes[0] == "chunk 4: its worker process (GPU 1) died (exit code -9); it runs again (attempt 2 of 3)"
+
+
+def test_hand_out_ahead_only_while_the_queue_is_long():
+    ex = gpus.GpuProcesses(NAMES)
+    sent = []
+    slot = gpus._Slot(0, "1")
+    slot.state, slot.conn = "ready", type("Pipe", (), {"send": lambda self, msg: sent.append(msg)})()
+    ex.slots, ex.manifest, ex._running = [slot], {}, True
+    ex._queue = gpus.deque(range(5))
+    ex._hand_out()  # idle: the first chunk, and the next ahead (3 left, more than the 2 processes)
+    assert slot.chunks == [0, 1] and sent == [(0, False), (1, False)]
+    slot.chunks.remove(0)
+    ex._hand_out()  # one held, 3 in the queue: one more ahead
+    assert slot.chunks == [1, 2]
+    slot.chunks.remove(1)
+    ex._hand_out()  # 2 left for 2 processes: none ahead
+    assert slot.chunks == [2] and list(ex._queue) == [3, 4]
+    slot.chunks.remove(2)
+    ex._hand_out()  # idle: the first chunk, whatever is left
+    assert slot.chunks == [3] and list(ex._queue) == [4]
 
 
 def test_killed_worker_chunk_runs_again(tmp_path, monkeypatch, reference):

@@ -298,3 +298,43 @@ def test_dry_run_estimates_for_the_device_it_will_run_on(tmp_path, capsys):
     if not has_gpu():
         # 1000 x 2000 steps at the CPU rate of MJX (5e3 per core): minutes, not "about 0 s"
         assert "CPU cores" in out and " min" in out, out
+
+
+def test_a_chunk_simulated_is_written_and_recorded_even_when_the_next_one_fails(tmp_path, monkeypatch):
+    """The pipeline writes a chunk on its own thread while the engine runs the next (`chunks.Pipeline`): an
+    error in the next chunk, or a failed write, stops the sweep, but never loses a chunk already simulated."""
+    import time
+
+    from conftest import sweep_spec
+
+    from batchveh.sweeping.chunks import ChunkRunner
+
+    runner = ChunkRunner(load_spec(sweep_spec(tmp_path)), "mujoco", 8, 2)
+    (tmp_path / "out").mkdir()
+    folder = ResultFolder(tmp_path / "out")
+    write, finish = folder.write_file, runner.finish
+
+    def slow_write(c, table):  # chunk 1 is still being written when chunk 2 raises
+        time.sleep(0.5 if c == 1 else 0.0)
+        if c == 3:
+            raise OSError("disk full")
+        return write(c, table)
+
+    def failing(prepared):
+        if prepared[0] == 2:
+            raise RuntimeError("chunk 2 broke")
+        return finish(prepared)
+
+    monkeypatch.setattr(folder, "write_file", slow_write)
+    monkeypatch.setattr(runner, "finish", failing)
+    written = []
+    with pytest.raises(RuntimeError, match="chunk 2 broke"):
+        runner.run_here([0, 1, 2, 3], folder, lambda c, name, rec: written.append((c, name, rec["rows"])))
+    assert written == [(0, "part-00000.parquet", 2), (1, "part-00001.parquet", 2)]
+    written.clear()
+    with pytest.raises(OSError, match="disk full"):  # the last chunk's write fails: raised at the end
+        runner.run_here([3], folder, lambda c, name, rec: written.append(c))
+    assert written == []
+    with pytest.raises(OSError, match="disk full"):  # or at the next chunk's start
+        runner.run_here([3, 0, 1], folder, lambda c, name, rec: written.append(c))
+    assert 3 not in written

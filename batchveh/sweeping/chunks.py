@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import platform
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -152,28 +152,6 @@ class ChunkRunner:
         """Chunk `c`'s rows: the variant table's rows, then the statistics columns and `status`."""
         return self.finish(self.prepare(c))
 
-    def run_ahead(
-        self, todo: list[int], phase: Callable[[str], None] = lambda _: None
-    ) -> Iterator[tuple[int, pa.Table]]:
-        """(chunk, table) for each chunk of `todo` in turn, each next chunk prepared on a worker thread
-        while the engine runs the current one (MuJoCo's set_const, JAX and XLA release the GIL).
-        `phase` is told what happens, before each phase ('chunk 2/8: simulating')."""
-        from concurrent.futures import ThreadPoolExecutor
-
-        with ThreadPoolExecutor(1, thread_name_prefix="batchveh-prepare") as pool:
-            ahead = pool.submit(self.prepare, todo[0]) if todo else None
-            for i, c in enumerate(todo):
-                where = f"chunk {c + 1}/{self.n_chunks}"
-                if not ahead.done():
-                    phase(f"{where}: preparing {self.size(c):,} variants")
-                prepared = ahead.result()
-                ahead = pool.submit(self.prepare, todo[i + 1]) if i + 1 < len(todo) else None
-                first = self.engine.compiles == 0 and self.backend != "mujoco"
-                phase(f"{where}: {'compiling, then ' if first else ''}simulating on {self.backend}")
-                table = self.finish(prepared)
-                phase(f"{where}: writing")
-                yield c, table
-
     def engine_stats(self) -> dict[str, Any]:
         """This process's engine: its compile time, its compiles and MuJoCo's first warnings."""
         e = self.engine
@@ -186,12 +164,91 @@ class ChunkRunner:
         finished: Callable[[int, str, dict], None],
         phase: Callable[[str], None] = lambda _: None,
     ) -> dict[int, str]:
-        """Run and write the chunks of `todo` in this process (`run_ahead`), calling finished(chunk, part name,
-        record) after each: what every executor does where it runs alone. Returns the chunks that failed: none
-        (an error here stops the sweep)."""
-        for c, table in self.run_ahead(todo, phase):
-            finished(c, *folder.write_file(c, table))
+        """Run and write the chunks of `todo` in this process, each next chunk prepared and each finished one
+        written while the engine runs (`Pipeline`), calling finished(chunk, part name, record) as each is
+        written (on the writing thread) and phase(what) as each chunk's phase starts: what every executor
+        does where it runs alone. Returns the chunks that failed: none (an error here stops the sweep, once
+        the chunks already simulated are written and recorded)."""
+        with Pipeline(self, folder) as pipe:
+            for i, c in enumerate(todo):
+                if i + 1 < len(todo):
+                    pipe.ahead(todo[i + 1])
+                where = f"chunk {c + 1}/{self.n_chunks}"
+                if not pipe.ready(c):
+                    phase(f"{where}: preparing {self.size(c):,} variants")
+                first = self.engine.compiles == 0 and self.backend != "mujoco"
+                phase(f"{where}: {'compiling, then ' if first else ''}simulating on {self.backend}")
+                pipe.write(c, pipe.simulate(c), finished)
+            phase("writing")
         return {}
+
+
+class Pipeline:
+    """One process's chunks, overlapped with its engine: `ahead(c)` prepares chunk c on a thread while the
+    engine runs another (MuJoCo's set_const, JAX and XLA release the GIL), `simulate(c)` runs it, and
+    `write(c, table, then)` writes its part on a second thread while the engine runs the next, then calls
+    then(c, part name, record) on that thread. Leaving the `with` block waits for every write, also on an
+    error: a chunk simulated is written and recorded. A write that raised raises in the next `simulate` or
+    at the end, unless `write` was given `failed`."""
+
+    def __init__(self, runner: ChunkRunner, folder: ResultFolder):
+        from concurrent.futures import ThreadPoolExecutor
+
+        self.runner, self.folder = runner, folder
+        self._prepare = ThreadPoolExecutor(1, thread_name_prefix="batchveh-prepare")
+        self._writer = ThreadPoolExecutor(1, thread_name_prefix="batchveh-write")
+        self._prepared: dict[int, Any] = {}
+        self._writes: list[Any] = []
+
+    def __enter__(self) -> Pipeline:
+        return self
+
+    def __exit__(self, kind: Any, *_: Any) -> None:
+        for f in self._prepared.values():
+            f.cancel()
+        self._prepare.shutdown(wait=True)
+        self._writer.shutdown(wait=True)  # every write done, and recorded by its `then`
+        if kind is None:
+            self._check()
+
+    def ahead(self, c: int) -> None:
+        if c not in self._prepared:
+            self._prepared[c] = self._prepare.submit(self.runner.prepare, c)
+
+    def ready(self, c: int) -> bool:
+        """Whether chunk c is prepared already."""
+        f = self._prepared.get(c)
+        return f is not None and f.done()
+
+    def simulate(self, c: int) -> pa.Table:
+        """Chunk c's table (prepared ahead or now); raises a write that failed before."""
+        self._check()
+        f = self._prepared.pop(c, None)
+        return self.runner.finish(f.result() if f is not None else self.runner.prepare(c))
+
+    def write(
+        self,
+        c: int,
+        table: pa.Table,
+        then: Callable[[int, str, dict], None],
+        failed: Callable[[int, BaseException], None] | None = None,
+    ) -> None:
+        def job() -> None:
+            try:
+                part = self.folder.write_file(c, table)
+            except Exception as err:
+                if failed is None:
+                    raise
+                failed(c, err)
+                return
+            then(c, *part)
+
+        self._writes.append(self._writer.submit(job))
+
+    def _check(self) -> None:
+        for f in [f for f in self._writes if f.done()]:
+            self._writes.remove(f)
+            f.result()
 
 
 def versions() -> dict[str, str]:

@@ -143,12 +143,16 @@ class ChunkWorker:
             "node": socket.gethostname(),
         }
 
-    def run(self, c: int) -> tuple[str, dict[str, Any]]:
-        """Run chunk `c` and write its part; return (part name, record) for the manifest."""
+    def check(self, c: int) -> None:
+        """Raise where chunk `c` cannot run here: an engine that could not be built, or a test's injected fault."""
         if self.error:  # a restarted worker whose engine could not be built this time
             raise ConfigError(self.error)
         if str(c) in os.environ.get("BATCHVEH_FAIL_CHUNKS", "").split(","):
             raise RuntimeError(f"chunk {c} is in BATCHVEH_FAIL_CHUNKS (injected fault)")
+
+    def run(self, c: int) -> tuple[str, dict[str, Any]]:
+        """Run chunk `c` and write its part; return (part name, record) for the manifest."""
+        self.check(c)
         return self.folder.write_file(c, self.runner.run(c))
 
     def engine_stats(self) -> dict[str, Any]:

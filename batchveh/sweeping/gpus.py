@@ -11,14 +11,18 @@ runs one chunk at a time and writes its part itself. Ray is not used: its start 
 imports) cost 7 s before a second GPU worked, and the warp engine fails in a process connected to Ray, so
 there the driver could not work beside the workers (docs/multi-gpu.md).
 
-One queue of chunks, held by the driver: the driver takes its next chunk from the front between its own
-chunks, and a background thread hands the next chunk to each worker the moment it reports its last one
-written (over a pipe per worker: milliseconds, so a worker never waits for the driver's chunk), records it
-in the manifest at once (`finished`, under one lock with the driver's own), and watches the worker
-processes. The driver knows at every moment which process holds which chunk, so a chunk is never lost and
-never recorded twice. Chunks are `shared_chunk(n, gpus)` variants unless the spec or the caller sets them.
+One queue of chunks, held by the driver: the driver takes its next chunk from the front as it starts one of
+its own, and a background thread hands the next chunk to each worker as it reports its last one written
+(over a pipe per worker: milliseconds, so a worker never waits for the driver's chunk), records it in the
+manifest at once (`finished`, under one lock with the driver's own), and watches the worker processes.
+Every process works as `--executor local` does (`chunks.Pipeline`): its next chunk prepared and its last one
+written while its engine runs, so each holds up to two chunks (one ahead) while the queue holds more chunks
+than there are processes; the last ones go to whichever is free first. The driver knows at every moment
+which process holds which chunks and which one each simulates, so a chunk is never lost and never recorded
+twice. Chunks are `shared_chunk(n, gpus)` variants unless the spec or the caller sets them.
 
-Faults. A worker process that dies: the chunk it held goes back to the front of the queue, and a new worker
+Faults. A worker process that dies: the chunks it held go back to the front of the queue (the one it
+simulated counts an attempt), and a new worker
 starts on that GPU (up to MAX_RESTARTS times). A chunk that raises in a worker goes back too. A chunk runs
 at most MAX_ATTEMPTS times on workers; after that it is reported by name (`run` returns it) and the others
 go on. An error in the driver's own chunk stops the sweep, as `--executor local`. A worker whose engine
@@ -43,9 +47,11 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import queue
 import signal
 import sys
 import threading
+import time
 from collections import Counter, deque
 from collections.abc import Callable
 from multiprocessing.connection import wait
@@ -53,6 +59,7 @@ from typing import TYPE_CHECKING, Any
 
 from batchveh.config import ConfigError
 from batchveh.engines.common import spawn_safe
+from batchveh.sweeping.chunks import Pipeline
 from batchveh.sweeping.cluster import (
     MAX_ATTEMPTS,
     MAX_RESTARTS,
@@ -74,17 +81,20 @@ if TYPE_CHECKING:
 # its engine and compile run while this process builds and compiles its own. Estimated, not yet measured on
 # its own: about 2.5 s. Below 2 x this of simulation on one GPU a sweep runs in this process alone.
 GPU_PROCESS_START_S = 2.5
-STOP_WAIT = 0.2  # s: an idle worker told to stop is given this long to exit, then terminated (it holds nothing)
 WAIT = 0.5  # s: the longest a wait on the workers or on the queue lasts before it looks again (closing, errors)
 
 
 def _work(conn: Any, args: tuple, gpu: str | None, jax_cache: dict[str, Any]) -> None:
-    """A worker process: build a ChunkWorker, say whether it is ready, then run each chunk the driver sends,
-    answering ("done", chunk, part name, record, engine stats) or ("failed", chunk, why); None: stop."""
+    """A worker process: build a ChunkWorker, say whether it is ready (with the times of its phases), then run
+    the chunks the driver sends, in order, each next one prepared and each finished one written while the
+    engine runs (`chunks.Pipeline`); it says ("started", chunk) as a chunk's simulation starts, then ("done",
+    chunk, part name, record, engine stats) once its part is written, or ("failed", chunk, why); None: stop."""
+    entry = time.time()
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the terminal's whole group: the driver ends us
     import gc
 
     gc.set_threshold(50_000, 20, 100)  # as the CLI's own process (batchveh.sweep.tune_process_for_one_job)
+    phases = {"entry": entry}
     try:
         if jax_cache:  # the driver's persistent compile cache (the CLI's enable_compile_cache); starts no backend
             import jax
@@ -95,24 +105,47 @@ def _work(conn: Any, args: tuple, gpu: str | None, jax_cache: dict[str, Any]) ->
         info = worker.describe()
     except Exception as err:  # an engine that cannot start here: the driver goes on without this worker
         info = {"error": f"{type(err).__name__}: {_last_line(err)}"}
+    phases["built"] = time.time()
+    lock = threading.Lock()  # the writing thread says "done" while this one may say "started" or "failed"
+
+    def say(msg: tuple) -> None:
+        with lock:
+            conn.send(msg)
+
     try:
-        conn.send(("ready", info))
+        say(("ready", {**info, "phases": phases}))
         if info["error"]:  # held until the driver has read why (it then lets this worker go, not restart it)
             conn.recv()
             return
-        while True:
-            msg = conn.recv()
-            if msg is None:
-                return
-            c, die = msg
-            try:
-                if die:  # BATCHVEH_KILL_CHUNK: simulated, not written
-                    worker.runner.run(c)
-                    os._exit(1)
-                name, rec = worker.run(c)
-                conn.send(("done", c, name, rec, worker.engine_stats()))
-            except Exception as err:
-                conn.send(("failed", c, f"{type(err).__name__}: {_last_line(err)}"))
+        with Pipeline(worker.runner, worker.folder) as pipe:
+            inbox: queue.SimpleQueue = queue.SimpleQueue()
+
+            def receive() -> None:  # each chunk is prepared as soon as it is handed (ahead of its turn)
+                try:
+                    while (msg := conn.recv()) is not None:
+                        pipe.ahead(msg[0])
+                        inbox.put(msg)
+                except (EOFError, OSError):  # the driver is gone
+                    pass
+                inbox.put(None)
+
+            threading.Thread(target=receive, name="batchveh-receive", daemon=True).start()
+            while (msg := inbox.get()) is not None:
+                c, die = msg
+                say(("started", c))
+                try:
+                    worker.check(c)
+                    table = pipe.simulate(c)
+                    if die:  # BATCHVEH_KILL_CHUNK: simulated, not written
+                        os._exit(1)
+                    pipe.write(
+                        c,
+                        table,
+                        lambda c, name, rec: say(("done", c, name, rec, worker.engine_stats())),
+                        lambda c, err: say(("failed", c, f"{type(err).__name__}: {_last_line(err)}")),
+                    )
+                except Exception as err:
+                    say(("failed", c, f"{type(err).__name__}: {_last_line(err)}"))
     except (EOFError, OSError):  # the driver is gone
         return
 
@@ -124,7 +157,8 @@ def _last_line(err: BaseException) -> str:
 
 class _Slot:
     """One GPU's worker: its process (replaced after a death), the driver's end of its pipe, its state
-    ('starting', 'ready', 'gone': not used or not restarted) and the chunk it holds."""
+    ('starting', 'ready', 'gone': not used or not restarted), the chunks it holds in the order handed (being
+    written, simulated, handed ahead) and the one it simulates."""
 
     def __init__(self, index: int, gpu: str):
         self.index, self.gpu = index, gpu
@@ -133,7 +167,9 @@ class _Slot:
         self.conn: Any = None
         self.state = "starting"
         self.info: dict[str, Any] | None = None  # its answer to the start, until the driver's manifest is known
-        self.chunk: int | None = None
+        self.chunks: list[int] = []
+        self.running: int | None = None
+        self.spawned = 0.0
         self.restarts = 0
         self.stats: dict[str, Any] | None = None
 
@@ -163,7 +199,8 @@ class GpuProcesses:
         self._cond = threading.Condition(threading.RLock())  # guards everything below, and `finished`
         self._queue: deque[int] = deque()
         self._running = False  # `run` has filled the queue
-        self._own: int | None = None  # the chunk this process runs
+        self._mine: list[int] = []  # the chunks this process holds: handed ahead, simulated, being written
+        self._ahead: int | None = None  # of them, the one handed to it ahead, not begun
         self._attempts: Counter[int] = Counter()
         self._failed: dict[int, str] = {}
         self._finished: Callable[[int, str, dict], None] | None = None
@@ -239,9 +276,10 @@ class GpuProcesses:
         proc = self._ctx.Process(
             target=_work, args=(there, self._args, gpu, self._jax_cache), name=f"batchveh-{slot.where}", daemon=True
         )
+        slot.spawned = time.time()
         proc.start()
         there.close()  # the worker's end lives in the worker: its death closes the pipe
-        slot.proc, slot.conn, slot.state, slot.info, slot.chunk = proc, here, "starting", None, None
+        slot.proc, slot.conn, slot.state, slot.info, slot.chunks, slot.running = proc, here, "starting", None, [], None
 
     def run(
         self,
@@ -252,7 +290,9 @@ class GpuProcesses:
     ) -> dict[int, str]:
         """Run the chunks in `todo`, here and on the workers, calling finished(chunk, part name, record) as
         each is written; return {chunk: why} for those that kept failing on the workers. An error in this
-        process's own chunk stops the sweep."""
+        process's own chunk stops the sweep. Each process, this one too, is handed its next chunk while it
+        runs one (so that it prepares it ahead: `chunks.Pipeline`) while the queue holds more chunks than
+        there are processes to take them; the last ones go to whichever process is free first."""
         if not self.slots:  # this process alone, as --executor local (the next chunk prepared ahead)
             return self.runner.run_here(todo, self.folder, finished, phase)
         with self._cond:
@@ -262,49 +302,74 @@ class GpuProcesses:
             self._queue, self._running = deque(todo), True
             self._hand_out()
         try:
-            while True:
-                with self._cond:
-                    c = self._next_here()
-                    while c is None and not self._all_done():
-                        phase(f"{self._held()} chunk{'s' * (self._held() != 1)} on worker processes")
-                        self._cond.wait(WAIT)
+            with Pipeline(self.runner, self.folder) as pipe:
+                while True:
+                    with self._cond:
                         c = self._next_here()
-                    if c is None:
-                        return dict(self._failed)
-                    phase(f"chunk {c + 1}/{self.runner.n_chunks} here, {self._held()} on worker processes")
-                    self.timeline.add("chunk start", chunk=c, where="driver")
-                part = self.folder.write_file(c, self.runner.run(c))
-                with self._cond:
-                    self.timeline.add("chunk end", chunk=c, where="driver")
-                    self._own = None
-                    finished(c, *part)
-                    self._cond.notify_all()
+                        while c is None and not self._all_done():
+                            phase(f"{self._held()} chunk{'s' * (self._held() != 1)} on worker processes")
+                            self._cond.wait(WAIT)
+                            c = self._next_here()
+                        if c is None:
+                            break
+                        ahead = self._ahead_here()
+                        phase(f"chunk {c + 1}/{self.runner.n_chunks} here, {self._held()} on worker processes")
+                        self.timeline.add("chunk start", chunk=c, where="driver")
+                    if ahead is not None:
+                        pipe.ahead(ahead)
+                    pipe.write(c, pipe.simulate(c), self._written_here)
+            with self._cond:
+                return dict(self._failed)
         finally:
             with self._cond:
                 self._stopping = True  # every chunk is written or failed, or this process's chunk raised
                 for slot in self.slots:
                     self._send(slot, None)
 
+    def _written_here(self, c: int, name: str, rec: dict[str, Any]) -> None:
+        """This process's chunk `c` is written (on the pipeline's writing thread)."""
+        with self._cond:
+            self.timeline.add("chunk end", chunk=c, where="driver")
+            self._mine.remove(c)
+            self._finished(c, name, rec)
+            self._cond.notify_all()
+
+    def _up(self) -> int:
+        """The processes that take chunks: this one and each worker not let go."""
+        return 1 + sum(s.state != "gone" for s in self.slots)
+
     def _next_here(self) -> int | None:
-        """The first chunk of the queue for this process (not one a test hook leaves to the workers while one
-        is up), taken; raises what the background thread met."""
+        """The chunk this process runs next: the one handed to it ahead, else the first of the queue it may
+        take (not one a test hook leaves to the workers while one is up); raises what the background thread
+        met."""
         if self._error is not None:
             raise self._error
+        c, self._ahead = self._ahead, None
+        return c if c is not None else self._take_here()
+
+    def _take_here(self) -> int | None:
         up = any(s.state != "gone" for s in self.slots)
         for c in self._queue:
             # a chunk that failed on a worker (or killed it) is not run here while a worker is up: it could
             # take this process, and the whole sweep, with it
             if not up or not (c in self._fail or c == self._kill or self._attempts[c] > 0):
                 self._queue.remove(c)
-                self._own = c
+                self._mine.append(c)
                 return c
         return None
 
+    def _ahead_here(self) -> int | None:
+        """This process's next chunk, taken now to be prepared ahead, where the queue holds more chunks than
+        processes; else None."""
+        if len(self._queue) > self._up():
+            self._ahead = self._take_here()
+        return self._ahead
+
     def _held(self) -> int:
-        return sum(s.chunk is not None for s in self.slots)
+        return sum(len(s.chunks) for s in self.slots)
 
     def _all_done(self) -> bool:
-        return not self._queue and self._own is None and not self._held()
+        return not self._queue and not self._mine and not self._held()
 
     def _send(self, slot: _Slot, msg: Any) -> bool:
         try:
@@ -314,8 +379,8 @@ class GpuProcesses:
             return False
 
     def _hand_out(self) -> None:
-        """Admit the workers that are ready (once this process's manifest is known) and give each idle one the
-        first chunk of the queue. Under the lock."""
+        """Admit the workers that are ready (once this process's manifest is known) and hand chunks out. Under
+        the lock."""
         if self._stopping:
             return
         if self.manifest is not None:
@@ -325,18 +390,22 @@ class GpuProcesses:
         if not self._running:
             return
         for slot in self.slots:
-            if slot.state != "ready" or slot.chunk is not None or not self._queue:
-                continue
-            c = self._queue.popleft()
-            die = c == self._kill
-            if die:
-                self._kill = None  # once
-            slot.chunk = c
-            if not self._send(slot, (c, die)):
-                slot.chunk = None
-                self._queue.appendleft(c)  # no attempt spent: it never started
-                continue
-            self.timeline.add("chunk start", chunk=c, where=slot.where)
+            # an idle worker gets the first chunk; one with a single chunk its next ahead while the queue holds
+            # more than there are processes
+            while (
+                slot.state == "ready"
+                and self._queue
+                and (not slot.chunks or (len(slot.chunks) == 1 and len(self._queue) > self._up()))
+            ):
+                c = self._queue.popleft()
+                die = c == self._kill
+                if die:
+                    self._kill = None  # once
+                if not self._send(slot, (c, die)):
+                    self._queue.appendleft(c)  # no attempt spent: it never started
+                    break
+                slot.chunks.append(c)
+                self.timeline.add("chunk handed", chunk=c, where=slot.where)
 
     def _admit(self, slot: _Slot) -> None:
         info, why = slot.info, slot.info["error"]
@@ -352,7 +421,11 @@ class GpuProcesses:
             return
         slot.state = "ready"
         self.workers_info.append({"pid": info["pid"], "gpu": slot.gpu, "device": info["device"]})
-        self.timeline.add("worker ready", where=slot.where, pid=info["pid"], gpu=slot.gpu, device=info["device"])
+        # its phases: spawned here, its own code entered (interpreter, imports, arguments), its engine built
+        phases = {"spawned": slot.spawned, **info.get("phases", {})}
+        self.timeline.add(
+            "worker ready", where=slot.where, pid=info["pid"], gpu=slot.gpu, device=info["device"], phases=phases
+        )
 
     def _watch(self) -> None:
         """The background thread: take in what the workers say, and their deaths, as they come."""
@@ -386,7 +459,14 @@ class GpuProcesses:
                 if msg[0] == "ready":
                     slot.info = msg[1]
                     continue
-                c, slot.chunk = msg[1], None
+                c = msg[1]
+                if msg[0] == "started":
+                    slot.running = c
+                    self.timeline.add("chunk start", chunk=c, where=slot.where)
+                    continue
+                slot.chunks.remove(c)
+                if slot.running == c:
+                    slot.running = None
                 if msg[0] == "done":
                     _, _, name, rec, slot.stats = msg
                     self.timeline.add("chunk end", chunk=c, where=slot.where)
@@ -401,11 +481,14 @@ class GpuProcesses:
         code = slot.proc.exitcode
         slot.conn.close()
         slot.proc = None
-        c, slot.chunk = slot.chunk, None
+        c, held = slot.running, slot.chunks
+        slot.running, slot.chunks = None, []
         if self._stopping or slot.state == "gone":  # stopped, or let go
             slot.state = "gone"
             return
         self.timeline.add("worker died", where=slot.where, chunk=c, exitcode=code)
+        for other in reversed([h for h in held if h != c]):  # written or not yet begun: no attempt spent
+            self._queue.appendleft(other)
         if c is not None:
             self._again(c, f"its worker process (GPU {slot.gpu}) died (exit code {code})")
         if slot.restarts < self.max_restarts:
@@ -432,8 +515,9 @@ class GpuProcesses:
             return merged_stats([self.runner.engine_stats(), *(s.stats for s in self.slots if s.stats)])
 
     def close(self) -> None:
-        """End the workers: those told to stop exit by themselves; the others (still starting, or running a
-        chunk of a sweep that stopped on an error) are terminated."""
+        """End the workers: those told to stop exit by themselves, not waited for (each has written all it
+        held); the others (still starting, or running a chunk of a sweep that stopped on an error) are
+        terminated."""
         if not self.slots or self._closing:
             return
         with self._cond:  # the background thread, woken by the deaths, finds `_closing` and touches nothing
@@ -441,19 +525,16 @@ class GpuProcesses:
             for slot in self.slots:
                 if slot.proc is None:
                     continue
-                idle = slot.state == "ready" and slot.chunk is None
-                if idle and self._send(slot, None):
-                    slot.proc.join(timeout=STOP_WAIT)
-                if slot.proc.is_alive():
+                idle = slot.state == "ready" and not slot.chunks
+                if not (idle and self._send(slot, None)):
                     slot.proc.terminate()
                     slot.proc.join(timeout=5.0)
-                if slot.proc.is_alive():
-                    slot.proc.kill()
-                    slot.proc.join()
+                    if slot.proc.is_alive():
+                        slot.proc.kill()
+                        slot.proc.join()
                 slot.conn.close()
                 slot.proc = None
-        if self._thread is not None:
-            self._thread.join()
+        # the background thread finds `_closing` within WAIT and ends; it touches nothing after that
         self.timeline.add("closed")
 
 
