@@ -446,7 +446,12 @@ def main(argv: list[str] | None = None) -> int:
             raise ConfigError("--plots: figures are written to a local folder; give a local --out for them")
         enable_compile_cache()
         from batchveh.engines import resolve_backend
+        from batchveh.sweeping import gpus
 
+        if args.executor != "ray" and gpus.own_gpu_only(args.backend or spec.backend):
+            import jax
+
+            jax.config.update("jax_cuda_visible_devices", "0")  # before JAX starts: see own_gpu_only
         backend = resolve_backend(args.backend or spec.backend)
         if backend == "warp" and args.executor != "ray":
             init_warp_without_cuda()
@@ -461,8 +466,6 @@ def main(argv: list[str] | None = None) -> int:
 
             executor = GpuProcesses()
         elif backend == "warp" and args.executor is None:  # every local GPU where a second one pays
-            from batchveh.sweeping import gpus
-
             n = count_variants(spec, args.limit, args.max_variants)
             executor = gpus.automatic(spec, backend, n, args.chunk_size)
         s = run_sweep(

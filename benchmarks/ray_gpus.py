@@ -98,10 +98,24 @@ SLOPE = ROOT / "benchmarks" / "slope_100k.yaml"
 ENV_KEYS = ("CUDA_VISIBLE_DEVICES", "BATCHVEH_RAY_ALONE", "BATCHVEH_RAY_DRIVER", "BATCHVEH_GPU_PROCESSES")
 
 
-def spec_of(folder: Path, n: int) -> Path:
+# the vehicle swept too (--structural-n): payload mass and position, wheel radius, track and CG height, the
+# ranges of benchmarks/structural_warp_vs_c.yaml
+STRUCTURAL = {
+    "payload.mass": {"low": 0, "high": 40},
+    "payload.x": {"low": -0.2, "high": 0.2},
+    "wheel.radius": {"low": 0.15, "high": 0.25},
+    "wheel.y_cg": {"low": 0.35, "high": 0.45},
+    "chassis.z_cg": {"low": 0.3, "high": 0.4},
+}
+
+
+def spec_of(folder: Path, n: int, structural: bool = False) -> Path:
     raw = yaml.safe_load(SLOPE.read_text())
     raw["sweep"]["n"], raw["name"] = n, f"slope_{n}"
-    path = folder / f"slope_{n}.yaml"
+    if structural:
+        raw["sweep"]["params"].update(STRUCTURAL)
+        raw["name"] = f"structural_{n}"
+    path = folder / f"{raw['name']}.yaml"
     path.write_text(yaml.safe_dump(raw, sort_keys=False))
     return path
 
@@ -333,11 +347,16 @@ def gpu_processes(
     smoke: bool = False,
     gpus_chunk: int | None = None,
     warm_chunks: tuple[int, ...] = (),
+    gpus_env: dict[str, str] | None = None,
+    structural_n: int = 0,
 ) -> dict:
     """Issue 33: --executor gpus against one GPU in-process, alternated (see the docstring). `gpus_chunk`: the
     1,000,000-variant gpus sweeps' --chunk-size (default: the executor's, shared_chunk). `warm_chunks`: after
     the warm-up, one in-process sweep of one chunk of each of these sizes (not timed in the pairs), so that
-    JAX's persistent compile cache holds each executable the pairs use: both peers start warm."""
+    JAX's persistent compile cache holds each executable the pairs use: both peers start warm. `gpus_env`: each
+    round also runs the gpus sweep with these environment variables added (its ratio to the same round's
+    in-process sweep is the pair '1m_env'). `structural_n`: last, that many variants with the vehicle swept too
+    (STRUCTURAL) with --executor gpus on two GPUs, then in-process on one."""
     import statistics
 
     t_start = time.time()
@@ -363,11 +382,12 @@ def gpu_processes(
     one = {"CUDA_VISIBLE_DEVICES": "0"}
     two = {"CUDA_VISIBLE_DEVICES": "0,1"}
 
-    def step(name, guess_s, n, executor, env, args=()):
+    def step(name, guess_s, n, executor, env, args=(), structural=False):
         if over_budget(res, name, guess_s, budget - (time.time() - t_start)):
             return None
         n = max(1, int(n * scale))
-        r = cli(spec_of(work, n), work / name, ["--executor", executor, *args], env, work, backend=backend)
+        spec = spec_of(work, n, structural)
+        r = cli(spec, work / name, ["--executor", executor, *args], env, work, backend=backend)
         r = {"variants": n, "executor": executor, **r, **chunk_summary(r)}
         res["steps"][name] = r
         print(name, {k: r.get(k) for k in ("process_s", "first_part_s", "chunk_s", "where", "error")}, flush=True)
@@ -396,11 +416,18 @@ def gpu_processes(
         step(f"warm_chunk_{k}_local", 60, k, "local", one, ["--chunk-size", str(k)])
     for r in range(1, rounds_1m + 1):
         runs = [("local", f"1m_local_1gpu_{r}", one), ("gpus", f"1m_gpus_2gpu_{r}", two)]
+        if gpus_env:
+            runs.append(("gpus_env", f"1m_gpusenv_2gpu_{r}", {**two, **gpus_env}))
         got = {}
         for executor, name, env in runs if r % 2 else runs[::-1]:
-            x = step(name, 160 if executor == "local" else 90, 1_000_000, executor, env, args[executor])
+            how = executor.removesuffix("_env")
+            x = step(name, 160 if how == "local" else 90, 1_000_000, how, env, args[how])
             got[executor] = x and {**x, "_name": name}
         pair("1m", r, got["local"], got["gpus"])
+        if gpus_env:
+            pair("1m_env", r, got["local"], got["gpus_env"])
+    if gpus_env:
+        res["gpus_env"] = gpus_env
     for r in range(1, rounds_100k + 1):
         runs = [("gpus", f"100k_gpus_{r}"), ("local", f"100k_local_{r}")]
         got = {}
@@ -408,7 +435,15 @@ def gpu_processes(
             x = step(name, 40, 100_000, executor, two)
             got[executor] = x and {**x, "_name": name}
         pair("100k", r, got["local"], got["gpus"])
-    for kind in ("1m", "100k"):
+    if structural_n:  # Warp builds the kernels of a model with the vehicle swept once per machine: not in the pair
+        step("structural_warm_20000_local", 90, 20_000, "local", one, structural=True)
+        got = {}
+        for executor, env in (("gpus", two), ("local", one)):
+            name = f"structural_{structural_n}_{executor}"
+            x = step(name, 20 + structural_n * 1.5e-4, structural_n, executor, env, structural=True)
+            got[executor] = x and {**x, "_name": name}
+        pair("structural", 1, got["local"], got["gpus"])
+    for kind in ("1m", "100k", "1m_env", "structural"):
         ratios = [p["process_ratio"] for p in res["pairs"] if p["what"] == kind]
         if ratios:
             res[f"median_process_ratio_{kind}"] = statistics.median(ratios)
@@ -431,7 +466,7 @@ def gpu_processes(
             f"{p['what']} round {p['round']}: {p['gpus']} / {p['local']}: process {p['process_ratio']:.3f}, "
             f"sweep {p['sweep_ratio']:.3f}"
         )
-    for kind in ("1m", "100k"):
+    for kind in ("1m", "100k", "1m_env", "structural"):
         if f"median_process_ratio_{kind}" in res:
             print(f"{kind}: median process ratio gpus / local {res[f'median_process_ratio_{kind}']:.3f}")
     return res
@@ -489,6 +524,18 @@ def main():
         help="with --gpu-processes: chunk sizes, comma-separated, each swept once in-process after the warm-up "
         "so that the compile cache holds them (the pairs' shapes: 125184,100096 on two GPUs)",
     )
+    ap.add_argument(
+        "--gpus-env",
+        default="",
+        help="with --gpu-processes: KEY=VALUE,... for an extra gpus sweep in each round (say "
+        "JAX_CUDA_VISIBLE_DEVICES=0: each process's JAX on its own GPU only)",
+    )
+    ap.add_argument(
+        "--structural-n",
+        type=int,
+        default=0,
+        help="with --gpu-processes: last, this many variants with the vehicle swept too, gpus then in-process",
+    )
     args = ap.parse_args()
     if args.gpu_processes:
         backend = args.backend if args.backend != "mjx" else "warp"
@@ -502,6 +549,8 @@ def main():
             args.smoke,
             args.gpus_chunk_size,
             tuple(int(k) for k in args.warm_chunks.split(",") if k.strip()),
+            dict(kv.split("=", 1) for kv in args.gpus_env.split(",") if kv.strip()),
+            args.structural_n,
         )
         return None
     if args.two_gpus:

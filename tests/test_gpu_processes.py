@@ -196,6 +196,18 @@ def test_automatic_choice(tmp_path, monkeypatch):
     assert gpus.automatic(spec, "warp", 1_000_000) is None
 
 
+def test_the_driver_shows_jax_its_own_gpu_only_for_warp_on_several_gpus(monkeypatch):
+    monkeypatch.setattr(gpus, "warp_installed", lambda: True)
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "2,3")
+    assert gpus.own_gpu_only("warp") and gpus.own_gpu_only("auto")
+    assert not gpus.own_gpu_only("mjx") and not gpus.own_gpu_only("mujoco")  # MJX shards over every GPU
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "3")
+    assert not gpus.own_gpu_only("warp")
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "2,3")
+    monkeypatch.setattr(gpus, "warp_installed", lambda: False)
+    assert not gpus.own_gpu_only("auto")
+
+
 def test_mjx_is_refused_in_one_line(tmp_path, capsys):
     argv = [str(_spec(tmp_path)), "--executor", "gpus", "--backend", "mjx", "--quiet"]
     assert main(argv) == 2
