@@ -192,15 +192,17 @@ def _gpu_processes(*docs: dict) -> str:
 
     def one(d):
         cards = d["machine"]["gpus"][0].split(",")[0].removeprefix("NVIDIA ").replace(" 80GB HBM3", "")
-        big = [p for p in d["pairs"] if p["what"] == "1m" and d["steps"][p["gpus"]].get("process_s")]
+        big = [p for p in d["pairs"] if p["what"] in ("1m", "1m_env") and d["steps"][p["gpus"]].get("process_s")]
         small = [p for p in d["pairs"] if p["what"] == "100k"]
+        env = ", ".join(f"{k}={v}" for k, v in d.get("gpus_env", {}).items())
         walls = "; ".join(
             f"{d['steps'][p['gpus']]['process_s']:.1f} s against {d['steps'][p['local']]['process_s']:.1f} s, "
-            f"**{p['process_ratio']:.3f}x**"
+            f"**{p['process_ratio']:.3f}x**{f' ({env})' if p['what'] == '1m_env' else ''}"
             for p in big
         )
         chunks = {d["steps"][p["gpus"]]["chunks"] for p in big}
-        text = f"two {cards}s: 1,000,000 x 10 s in {'/'.join(map(str, sorted(chunks)))} chunks: {walls}"
+        sizes = "/".join(map(str, sorted(chunks)))
+        text = f"two {cards}s, code {d['code'].split()[0]}: 1,000,000 x 10 s in {sizes} chunks: {walls}"
         if small:
             ratios = ", ".join(f"{p['process_ratio']:.2f}x" for p in small)
             text += f"; 100,000 x 10 s (one chunk, in-process) {ratios}"
@@ -320,11 +322,11 @@ ROWS = [
     Row(
         "Two GPUs without Ray: `--executor gpus` (one process per GPU; the default on a host with several) against "
         "one GPU in-process (CUDA_VISIBLE_DEVICES=0), end to end, alternated pairs",
-        ["h100x2-gpu-processes.json", "h100x2-gpu-processes-repeat.json", "h200x2-gpu-processes.json"],
+        ["h100x2-gpu-processes-final.json", "h100x2-gpu-processes-own-gpu.json", "h100x2-gpu-processes-pipeline.json"],
         _gpu_processes,
-        "two H100s (two hosts); two H200s (32 cores)",
-        "`python benchmarks/ray_gpus.py --gpu-processes OUT --rounds-1m 1 --rounds-100k 2` (the H200 run: "
-        "`--gpus-chunk-size 66816`, the chunk before)",
+        "two H100s, three fresh hosts, 32 cores each",
+        "`python benchmarks/ray_gpus.py --gpu-processes OUT --rounds-1m 2 --rounds-100k 0 --warmup-n 0 "
+        "--warm-chunks 125184,100096` (the second file: `--rounds-1m 1 --gpus-env JAX_CUDA_VISIBLE_DEVICES=0`)",
     ),
     Row(
         "A small sweep on a two-GPU host: 100,000 x 10 s with --executor ray (below Ray's break-even it runs "

@@ -66,7 +66,8 @@ PROBE_WAIT = 0.1  # s between readiness probes of a worker that Ray is restartin
 # CHUNKS_PER_GPU of them per GPU, so that a worker that joins late still evens out the end (docs/multi-gpu.md). On the
 # slip tyre chunks of 66,816 ran 1.13x slower per variant than chunks of 125,184: 1,000,000 x 10 s on two GPUs took
 # 0.585x one GPU's wall in 15 chunks (8 per GPU), 0.557x and 0.579x in 10 chunks of 100,096 (5 per GPU), 0.584x in 8
-# of 125,184 (two H100s: archive.json, benchmarks/results/h100x2-gpu-processes.json, h100x2-gpu-processes-repeat.json)
+# of 125,184 (two H100s, the code before chunks.Pipeline; benchmarks/results/archive.json:
+# h100x2-gpu-processes-100096.json, h100x2-gpu-processes-repeat.json)
 MIN_SHARED_CHUNK = 65536
 CHUNKS_PER_GPU = 5
 POLL = 0.02  # s: a short sleep where nothing is there to wait on

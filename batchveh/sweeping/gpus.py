@@ -543,7 +543,7 @@ def own_gpu_only(backend: str) -> bool:
     jax_cuda_visible_devices to 0 before JAX starts): the warp engine (`backend` 'warp', or 'auto' with
     warp-lang installed) on a host of several GPUs. The warp engine runs on JAX's first device only, and the
     other GPUs are the worker processes' (GpuProcesses); a JAX that starts on every GPU makes a context on
-    each, beside the workers' own. Measured on two H100s, 1,000,000 x 10 s (h100x2-gpu-processes-pipeline.json):
+    each, beside the workers' own. Measured on two H100s, 1,000,000 x 10 s (h100x2-gpu-processes-own-gpu.json):
     this process's first chunk took 15.8 s against 17.7 s with JAX on both GPUs (its compile-cache load 2.6 s
     against 4.5 s)."""
     return backend in ("auto", "warp") and len(local_gpus()) > 1 and warp_installed()
