@@ -1,9 +1,9 @@
 """batchveh: batch simulation of a four-wheeled vehicle for motor sizing.
 
 Public API: the vehicle and scenario definitions, single runs, sweeps and results.
-`simulate` and `run_sweep` live in the CLI modules `batchveh.run` and
-`batchveh.sweep`; they are imported on first use, so `python -m batchveh.run`
-and `python -m batchveh.sweep` start cleanly. `batchveh.sensitivity(result, ...)`
+Each name is imported from its module on first use (`simulate` and `run_sweep` from
+the CLI modules `batchveh.run` and `batchveh.sweep`), so `python -m batchveh.run`
+and `python -m batchveh.sweep` start cleanly and quickly. `batchveh.sensitivity(result, ...)`
 is the module `batchveh.sensitivity` (its CLI), which calls its function of that name.
 """
 
@@ -40,14 +40,29 @@ def _choose_gl() -> str | None:
 
 GL_PROBLEM = _choose_gl()
 
-from batchveh.config import ConfigError  # noqa: E402  (after _choose_gl: these import mujoco)
-from batchveh.model import missions as _missions  # noqa: E402, F401  (registers the scenario kind 'mission')
-from batchveh.model.scenarios import SCENARIOS, Scenario, load_scenario, make_scenario  # noqa: E402
-from batchveh.model.vehicle import MOTORS, Vehicle, load_vehicle  # noqa: E402
-from batchveh.sweeping.results import ResultError, load, metadata, units  # noqa: E402
-from batchveh.sweeping.spec import SweepSpec, load_spec, spec_from_mapping, variant_table  # noqa: E402
-
-_LAZY = {"simulate": "batchveh.run", "run_sweep": "batchveh.sweep"}
+# The public names, each imported from its module on first use (PEP 562): `python -m batchveh.sweep` reaches its
+# own code in a fraction of a second, so that it can start the other GPUs' worker processes before its imports
+# (batchveh/sweeping/prestart.py). The scenario kind 'mission' registers itself with batchveh.model's import.
+_LAZY = {
+    "ConfigError": "batchveh.config",
+    "SCENARIOS": "batchveh.model.scenarios",
+    "Scenario": "batchveh.model.scenarios",
+    "load_scenario": "batchveh.model.scenarios",
+    "make_scenario": "batchveh.model.scenarios",
+    "MOTORS": "batchveh.model.vehicle",
+    "Vehicle": "batchveh.model.vehicle",
+    "load_vehicle": "batchveh.model.vehicle",
+    "ResultError": "batchveh.sweeping.results",
+    "load": "batchveh.sweeping.results",
+    "metadata": "batchveh.sweeping.results",
+    "units": "batchveh.sweeping.results",
+    "SweepSpec": "batchveh.sweeping.spec",
+    "load_spec": "batchveh.sweeping.spec",
+    "spec_from_mapping": "batchveh.sweeping.spec",
+    "variant_table": "batchveh.sweeping.spec",
+    "simulate": "batchveh.run",
+    "run_sweep": "batchveh.sweep",
+}
 
 __all__ = [
     "ConfigError",
@@ -76,9 +91,15 @@ def __getattr__(name):
     if name in _LAZY:
         import importlib
 
-        return getattr(importlib.import_module(_LAZY[name]), name)
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value  # once
+        return value
     if name == "sensitivity":  # the module, which is callable: importing it binds it here anyway
         import importlib
 
         return importlib.import_module("batchveh.sensitivity")
     raise AttributeError(f"module 'batchveh' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted({*globals(), *__all__})

@@ -28,12 +28,18 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import pandas as pd
+if __name__ == "__main__":  # the command line: the other GPUs' workers start before this process's imports
+    from batchveh.sweeping import prestart
 
-from batchveh.config import ConfigError, OneLineParser
-from batchveh.sweeping.chunks import ChunkRunner
-from batchveh.sweeping.results import PART, Locked, ResultError, ResultFolder, load
-from batchveh.sweeping.spec import MAX_VARIANTS, SweepSpec, load_spec, saltelli_block
+    prestart.start(sys.argv[1:])
+
+import pandas as pd  # noqa: E402
+
+from batchveh.config import ConfigError, OneLineParser  # noqa: E402
+from batchveh.sweeping import prestart  # noqa: E402
+from batchveh.sweeping.chunks import ChunkRunner  # noqa: E402
+from batchveh.sweeping.results import PART, Locked, ResultError, ResultFolder, load  # noqa: E402
+from batchveh.sweeping.spec import MAX_VARIANTS, SweepSpec, load_spec, saltelli_block  # noqa: E402
 
 if TYPE_CHECKING:
     from batchveh.sweeping.cluster import RayExecutor
@@ -468,6 +474,8 @@ def main(argv: list[str] | None = None) -> int:
         elif backend == "warp" and args.executor is None:  # every local GPU where a second one pays
             n = count_variants(spec, args.limit, args.max_variants)
             executor = gpus.automatic(spec, backend, n, args.chunk_size)
+        if not isinstance(executor, gpus.GpuProcesses):
+            prestart.release()  # the workers started ahead are not needed
         s = run_sweep(
             spec,
             out=args.out,
@@ -500,6 +508,7 @@ def main(argv: list[str] | None = None) -> int:
         print("\ninterrupted: finished chunks are kept; run again with --resume", file=sys.stderr)
         return EXIT_INTERRUPTED
     finally:
+        prestart.release()  # any not taken (a sweep that runs in this process alone, an error)
         if started_ray:
             cluster.disconnect()
     if s["engine_warnings"]:

@@ -329,6 +329,22 @@ ROWS = [
         "--warm-chunks 125184,100096` (the second file: `--rounds-1m 1 --gpus-env JAX_CUDA_VISIBLE_DEVICES=0`)",
     ),
     Row(
+        "The worker started before the command line's imports (`prestart`) against at the executor's start, "
+        "`--executor gpus` on two CPU worker slots (MuJoCo C), 200 variants in 8 chunks, alternated",
+        ["cpu-2core-gpu-processes-prestart.json"],
+        lambda d: (
+            "worker ready after this process's engine: "
+            + ", ".join(f"{v:.2f} s" for k, v in d["worker_ready_after_engine_s"].items() if "gpus_" in k)
+            + " against "
+            + ", ".join(f"{v:.2f} s" for k, v in d["worker_ready_after_engine_s"].items() if "gpusenv" in k)
+            + f"; median ratio to one process **{d['median_process_ratio_1m']:.3f}x** against "
+            f"{d['median_process_ratio_1m_env']:.3f}x"
+        ),
+        TWO_CORES,
+        "`python benchmarks/ray_gpus.py --gpu-processes OUT --smoke --rounds-1m 3 --rounds-100k 0 "
+        "--gpus-env BATCHVEH_PRESTART=0`",
+    ),
+    Row(
         "A small sweep on a two-GPU host: 100,000 x 10 s with --executor ray (below Ray's break-even it runs "
         "in-process) against in-process, alternated pairs",
         ["h100x2-ray-100k.json"],

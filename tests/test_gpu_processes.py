@@ -208,6 +208,57 @@ def test_the_driver_shows_jax_its_own_gpu_only_for_warp_on_several_gpus(monkeypa
     assert not gpus.own_gpu_only("auto")
 
 
+def _cli_sweep(tmp_path, name, **env):
+    """The spec through `python -m batchveh.sweep --executor gpus` on two 'GPUs' (CPU worker processes), in a
+    fresh process: its timeline's 'worker ready' event and the rows."""
+    import subprocess
+    import sys
+
+    timeline, out = tmp_path / f"{name}.timeline.json", tmp_path / name
+    env = {**os.environ, "CUDA_VISIBLE_DEVICES": "0,1", "BATCHVEH_TIMELINE": str(timeline), **env}
+    cmd = [sys.executable, "-m", "batchveh.sweep", str(_spec(tmp_path)), "--executor", "gpus", "--chunk-size", "2"]
+    done = subprocess.run([*cmd, "--out", str(out), "--quiet"], env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    events = json.loads(timeline.read_text())
+    [ready] = [e for e in events if e["event"] == "worker ready"]
+    built = next(e["t"] for e in events if e["event"] == "engine built")
+    return ready, built, batchveh.load(out)
+
+
+def test_the_command_line_starts_the_worker_before_its_own_imports(tmp_path, reference):
+    """`prestart`: the worker process is spawned before the command line's imports (before the executor's
+    'start'), set up while they run, and handed the sweep; BATCHVEH_PRESTART=0 spawns it at the start."""
+    ready, built, rows = _cli_sweep(tmp_path, "ahead")
+    assert ready["started_ahead"] and ready["phases"]["spawned"] < built - 0.2, ready
+    pd.testing.assert_frame_equal(rows, reference)
+    ready, built, rows = _cli_sweep(tmp_path, "late", BATCHVEH_PRESTART="0")
+    assert not ready["started_ahead"], ready
+    pd.testing.assert_frame_equal(rows, reference)
+
+
+def test_which_command_lines_start_workers_ahead(tmp_path, monkeypatch):
+    from batchveh.sweeping import prestart
+
+    spec = _spec(tmp_path)  # backend mujoco
+    warp = tmp_path / "warp.yaml"
+    warp.write_text(spec.read_text().replace("backend: mujoco", "backend: warp"))
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "0,2,3")
+    monkeypatch.delenv("BATCHVEH_PRESTART", raising=False)
+    monkeypatch.delenv("BATCHVEH_GPU_PROCESSES", raising=False)
+    has_warp = prestart.importlib.util.find_spec("warp") is not None
+    assert prestart.wanted([str(spec), "--executor", "gpus"]) == (["2", "3"], False)
+    assert prestart.wanted([str(warp)]) == ((["2", "3"], True) if has_warp else ([], False))
+    assert prestart.wanted([str(spec)]) == ([], False)  # MuJoCo C, no --executor: in this process
+    assert prestart.wanted(["--backend", "warp", str(spec), "--executor=local"]) == ([], False)
+    assert prestart.wanted([str(warp), "--dry-run"]) == ([], False)
+    assert prestart.wanted([str(spec), "--executor", "gpus", "--executor", "ray"]) == ([], False)
+    monkeypatch.setenv("BATCHVEH_PRESTART", "0")
+    assert prestart.wanted([str(spec), "--executor", "gpus"]) == ([], False)
+    monkeypatch.setenv("BATCHVEH_PRESTART", "1")
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "1")
+    assert prestart.wanted([str(spec), "--executor", "gpus"]) == ([], False)
+
+
 def test_mjx_is_refused_in_one_line(tmp_path, capsys):
     argv = [str(_spec(tmp_path)), "--executor", "gpus", "--backend", "mjx", "--quiet"]
     assert main(argv) == 2

@@ -39,7 +39,9 @@ LAYERS = {
     ),
     "engines": ("engines", "engines.common", "engines.mujoco", "engines.mjx", "engines.warp_build", "engines.warp"),
     # how many variants run, where, and where the results go
-    "sweeping": tuple(f"sweeping.{m}" for m in ("", "storage", "spec", "results", "chunks", "cluster", "gpus")),
+    "sweeping": tuple(
+        f"sweeping.{m}" for m in ("", "storage", "spec", "results", "prestart", "chunks", "cluster", "gpus")
+    ),
     "analysis": tuple(f"analysis.{m}" for m in ("", "motors", "plot", "sensitivity")),
     "face": ("",),  # batchveh/__init__.py: the public names
     "cli": ("sweep", "run", "render", "sensitivity"),

@@ -43,7 +43,6 @@ import importlib.util
 import json
 import logging
 import os
-import re
 import socket
 import sys
 import threading
@@ -53,6 +52,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from batchveh.config import ConfigError
+from batchveh.sweeping.prestart import local_gpus
 
 if TYPE_CHECKING:
     from batchveh.sweeping.results import ResultFolder
@@ -227,21 +227,6 @@ def _start_local() -> None:
             logging_level=logging.ERROR,
             log_to_driver=False,
         )
-
-
-def local_gpus() -> list[str]:
-    """This machine's GPUs as CUDA_VISIBLE_DEVICES names them (its value where set, else 0..k-1 for the k
-    devices /dev/nvidiaN: CUDA numbers what it sees from 0, where a container's files may be /dev/nvidia2 and
-    /dev/nvidia3), without starting CUDA."""
-    visible = os.environ.get("CUDA_VISIBLE_DEVICES")
-    if visible is not None:
-        return [v.strip() for v in visible.split(",") if v.strip() and v.strip() != "-1"]
-    try:
-        names = os.listdir("/dev")
-    except OSError:
-        return []
-    found = [m for m in map(re.compile(r"nvidia(\d+)$").match, names) if m]
-    return [str(i) for i in range(len(found))]
 
 
 def alone_reason(

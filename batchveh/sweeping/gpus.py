@@ -2,12 +2,14 @@
 
     python -m batchveh.sweep SPEC --executor gpus      # also the default for warp on 2 or more GPUs (below)
 
-The warp engine uses one GPU per process, so a host's other GPUs need processes of their own. `GpuProcesses`
-starts them first thing (multiprocessing's spawn: a fresh interpreter, nothing of JAX inherited), so that
-their imports and engines are built while this process builds its own engine and runs its first chunk.
-This process (the driver) runs chunks on its main thread, on GPU 0 as JAX sees it, as `--executor local`
-does; each worker holds a `cluster.ChunkWorker` on its GPU (CUDA_VISIBLE_DEVICES set before JAX starts),
-runs one chunk at a time and writes its part itself. Ray is not used: its start (ray.init, the workers'
+The warp engine uses one GPU per process, so a host's other GPUs need processes of their own
+(multiprocessing's spawn: a fresh interpreter, nothing of JAX inherited). The command line starts them before
+its own imports (`prestart`), and `GpuProcesses` hands each the sweep; elsewhere (a library caller, a worker
+started again after a death) `GpuProcesses` starts them first thing. Either way their imports and engines are
+built while this process builds its own engine and runs its first chunk. This process (the driver) runs chunks
+on its main thread, on GPU 0 as JAX sees it (the only GPU its JAX sees, from the command line: `own_gpu_only`),
+as `--executor local` does; each worker holds a `cluster.ChunkWorker` on its GPU (CUDA_VISIBLE_DEVICES set
+before JAX starts) and writes its parts itself. Ray is not used: its start (ray.init, the workers'
 imports) cost 7 s before a second GPU worked, and the warp engine fails in a process connected to Ray, so
 there the driver could not work beside the workers (docs/multi-gpu.md).
 
@@ -59,6 +61,7 @@ from typing import TYPE_CHECKING, Any
 
 from batchveh.config import ConfigError
 from batchveh.engines.common import spawn_safe, warp_installed
+from batchveh.sweeping import prestart
 from batchveh.sweeping.chunks import Pipeline
 from batchveh.sweeping.cluster import (
     MAX_ATTEMPTS,
@@ -84,12 +87,12 @@ GPU_PROCESS_START_S = 2.5
 WAIT = 0.5  # s: the longest a wait on the workers or on the queue lasts before it looks again (closing, errors)
 
 
-def _work(conn: Any, args: tuple, gpu: str | None, jax_cache: dict[str, Any]) -> None:
+def _work(conn: Any, args: tuple, gpu: str | None, jax_cache: dict[str, Any], entry: float | None = None) -> None:
     """A worker process: build a ChunkWorker, say whether it is ready (with the times of its phases), then run
     the chunks the driver sends, in order, each next one prepared and each finished one written while the
     engine runs (`chunks.Pipeline`); it says ("started", chunk) as a chunk's simulation starts, then ("done",
     chunk, part name, record, engine stats) once its part is written, or ("failed", chunk, why); None: stop."""
-    entry = time.time()
+    entry = entry or time.time()  # a worker started ahead (prestart): when it entered its own code
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C reaches the terminal's whole group: the driver ends us
     import gc
 
@@ -170,6 +173,7 @@ class _Slot:
         self.chunks: list[int] = []
         self.running: int | None = None
         self.spawned = 0.0
+        self.ahead = False  # its process was started by the command line before its imports (prestart)
         self.restarts = 0
         self.stats: dict[str, Any] | None = None
 
@@ -240,6 +244,7 @@ class GpuProcesses:
         why = "no GPU found" if not gpus else None
         why = why or alone_reason(n, spec.stats_config().n_steps, backend, len(gpus), chunk, start_s, "its start")
         if why:  # exactly as --executor local
+            prestart.release()  # the workers the command line started ahead are not needed
             self.runner = ChunkRunner(spec, backend, n, chunk_size)
             self.manifest = self.runner.manifest
             self.timeline.add("alone", why=why)
@@ -271,14 +276,25 @@ class GpuProcesses:
         return self.manifest, f"this process and {k} worker process{'es' * (k > 1)}, each {self.runner.device}"
 
     def _spawn(self, slot: _Slot) -> None:
-        here, there = self._ctx.Pipe()
-        gpu = slot.gpu if self._gpu_engine else None
-        proc = self._ctx.Process(
-            target=_work, args=(there, self._args, gpu, self._jax_cache), name=f"batchveh-{slot.where}", daemon=True
-        )
-        slot.spawned = time.time()
-        proc.start()
-        there.close()  # the worker's end lives in the worker: its death closes the pipe
+        """Start slot's worker: the one the command line started ahead for its GPU (`prestart`), handed the
+        sweep, where there is one (not after a death), else a new process."""
+        ahead = prestart.take(slot.gpu) if not slot.restarts else None
+        if ahead is not None:
+            proc, here, slot.spawned = ahead
+            if not self._send_to(here, ("go", _work, self._args, self._jax_cache)):
+                here.close()
+                proc.terminate()
+                ahead = None
+        if ahead is None:
+            here, there = self._ctx.Pipe()
+            gpu = slot.gpu if self._gpu_engine else None
+            proc = self._ctx.Process(
+                target=_work, args=(there, self._args, gpu, self._jax_cache), name=f"batchveh-{slot.where}", daemon=True
+            )
+            slot.spawned = time.time()
+            proc.start()
+            there.close()  # the worker's end lives in the worker: its death closes the pipe
+        slot.ahead = ahead is not None
         slot.proc, slot.conn, slot.state, slot.info, slot.chunks, slot.running = proc, here, "starting", None, [], None
 
     def run(
@@ -372,8 +388,12 @@ class GpuProcesses:
         return not self._queue and not self._mine and not self._held()
 
     def _send(self, slot: _Slot, msg: Any) -> bool:
+        return self._send_to(slot.conn, msg)
+
+    @staticmethod
+    def _send_to(conn: Any, msg: Any) -> bool:
         try:
-            slot.conn.send(msg)
+            conn.send(msg)
             return True
         except (OSError, ValueError):  # it died (its death is taken in by `_watch`), or its pipe is closed
             return False
@@ -424,7 +444,13 @@ class GpuProcesses:
         # its phases: spawned here, its own code entered (interpreter, imports, arguments), its engine built
         phases = {"spawned": slot.spawned, **info.get("phases", {})}
         self.timeline.add(
-            "worker ready", where=slot.where, pid=info["pid"], gpu=slot.gpu, device=info["device"], phases=phases
+            "worker ready",
+            where=slot.where,
+            pid=info["pid"],
+            gpu=slot.gpu,
+            device=info["device"],
+            phases=phases,
+            started_ahead=slot.ahead,
         )
 
     def _watch(self) -> None:
