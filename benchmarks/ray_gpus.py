@@ -19,7 +19,7 @@ Writes OUTDIR/<gpu>x2-ray-scaling.json and OUTDIR/<gpu>x2-warp-spread.json (<gpu
 
 --gpu-processes (issue 33) measures `--executor gpus` (batchveh/sweeping/gpus.py: this process on GPU 0, one
 worker process on GPU 1, no Ray) through the CLI in fresh processes on benchmarks/slope_100k.yaml: a warm-up
-in-process (not timed), then --rounds-1m pairs of 1,000,000 variants in-process on one GPU
+in-process (not timed), a first CUDA use of each GPU, then --rounds-1m pairs of 1,000,000 variants in-process on one GPU
 (CUDA_VISIBLE_DEVICES=0) and with --executor gpus on two (CUDA_VISIBLE_DEVICES=0,1), the order swapped each
 round (a shared host drifts between runs), then --rounds-100k pairs of 100,000 with --executor gpus (one
 chunk: it runs in its own process) and --executor local, both GPUs visible. Prints a table: each sweep's
@@ -412,6 +412,13 @@ def gpu_processes(
 
     if warmup_n:
         step(f"warmup_{warmup_n}_local", 150, warmup_n, "local", one)
+    if not smoke:  # the first CUDA use of a GPU on a fresh machine is slow: not inside a pair (both peers warm)
+        res["gpu_touch_s"] = {}
+        for gpu in ("0", "1"):
+            t0 = time.time()
+            touch = "import jax, jax.numpy as jnp; jnp.zeros(1).block_until_ready()"
+            subprocess.run([sys.executable, "-c", touch], env={**os.environ, "CUDA_VISIBLE_DEVICES": gpu}, check=False)
+            res["gpu_touch_s"][gpu] = round(time.time() - t0, 2)
     for k in warm_chunks:
         step(f"warm_chunk_{k}_local", 60, k, "local", one, ["--chunk-size", str(k)])
     for r in range(1, rounds_1m + 1):
