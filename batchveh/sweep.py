@@ -28,15 +28,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-if __name__ == "__main__":  # the command line: the other GPUs' workers start before this process's imports
-    from batchveh.sweeping import prestart
+from batchveh.sweeping import prestart  # light: it imports nothing heavy
 
+if __name__ == "__main__":  # the command line: the other GPUs' workers start before this process's imports
     prestart.start(sys.argv[1:])
 
 import pandas as pd  # noqa: E402
 
 from batchveh.config import ConfigError, OneLineParser  # noqa: E402
-from batchveh.sweeping import prestart  # noqa: E402
 from batchveh.sweeping.chunks import ChunkRunner  # noqa: E402
 from batchveh.sweeping.results import PART, Locked, ResultError, ResultFolder, load  # noqa: E402
 from batchveh.sweeping.spec import MAX_VARIANTS, SweepSpec, load_spec, saltelli_block  # noqa: E402

@@ -364,7 +364,7 @@ class GpuProcesses:
         return c if c is not None else self._take_here()
 
     def _take_here(self) -> int | None:
-        up = any(s.state != "gone" for s in self.slots)
+        up = self._up() > 1  # a worker is up
         for c in self._queue:
             # a chunk that failed on a worker (or killed it) is not run here while a worker is up: it could
             # take this process, and the whole sweep, with it
@@ -572,7 +572,7 @@ def own_gpu_only(backend: str) -> bool:
     each, beside the workers' own. Measured on two H100s, 1,000,000 x 10 s (h100x2-gpu-processes-own-gpu.json):
     this process's first chunk took 15.8 s against 17.7 s with JAX on both GPUs (its compile-cache load 2.6 s
     against 4.5 s)."""
-    return backend in ("auto", "warp") and len(local_gpus()) > 1 and warp_installed()
+    return prestart.warp_on_several_gpus(backend) and warp_installed()
 
 
 def automatic(spec: SweepSpec, backend: str, n: int, chunk_size: int | None = None) -> GpuProcesses | None:

@@ -41,6 +41,12 @@ def local_gpus() -> list[str]:
     return [str(i) for i in range(len(found))]
 
 
+def warp_on_several_gpus(backend: str) -> bool:
+    """Whether a sweep of `backend` ('warp', or 'auto' with warp-lang found: the warp engine) runs on a host of
+    several local GPUs (without importing warp: `importlib.util.find_spec`)."""
+    return backend in ("warp", "auto") and len(local_gpus()) > 1 and importlib.util.find_spec("warp") is not None
+
+
 def _option(argv: list[str], name: str) -> str | None:
     """The value of `--name VALUE` or `--name=VALUE` in argv (the last one), else None."""
     value = None
@@ -87,8 +93,7 @@ def wanted(argv: list[str]) -> tuple[list[str], bool]:
     executor = _option(argv, "--executor")
     if len(gpus) < 2 or executor in ("local", "ray"):
         return [], False
-    backend = _option(argv, "--backend") or _spec_backend(argv)
-    warp = backend in ("warp", "auto") and importlib.util.find_spec("warp") is not None
+    warp = warp_on_several_gpus(_option(argv, "--backend") or _spec_backend(argv))
     if executor != "gpus" and not warp:
         return [], False
     return gpus[1:], warp
