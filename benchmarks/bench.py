@@ -43,6 +43,7 @@ from __future__ import annotations
 import argparse
 import json
 import platform
+import re
 import sys
 import time
 from pathlib import Path
@@ -75,7 +76,9 @@ def default_label() -> str:
     names = gpu_names()
     if not names:
         return f"cpu-{len(os.sched_getaffinity(0))}core"
-    kind = names[0].split()[-1].lower()
+    # the model's token ('NVIDIA H100 80GB HBM3' -> h100, where the last word, 'hbm3', named the file before)
+    model = re.search(r"\b[A-Z]{1,2}\d{2,4}[A-Za-z]*\b", names[0].removeprefix("NVIDIA "))
+    kind = (model.group(0) if model else names[0].split()[-1]).lower()
     return kind if len(names) == 1 else f"{kind}x{len(names)}"
 
 

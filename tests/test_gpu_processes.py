@@ -303,3 +303,20 @@ def test_a_worker_that_cannot_start_waits_to_be_let_go(tmp_path):
     here.send(None)
     proc.join(timeout=30)
     assert proc.exitcode == 0
+
+
+def test_a_warp_worker_started_ahead_opens_jax_beside_its_imports_and_stops_when_told():
+    """`prestart._wait` with the warp engine: JAX's backend starts on a thread while the process imports MuJoCo
+    MJX and MuJoCo Warp on another (both import JAX: no import deadlock), then None lets it go."""
+    import multiprocessing
+
+    from batchveh.sweeping import prestart
+
+    ctx = multiprocessing.get_context("spawn")
+    here, there = ctx.Pipe()
+    proc = ctx.Process(target=prestart._wait, args=(there, "", True), daemon=True)
+    proc.start()
+    there.close()
+    here.send(None)
+    proc.join(timeout=120)
+    assert proc.exitcode == 0

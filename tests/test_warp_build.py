@@ -66,6 +66,22 @@ def test_not_wanted_when_switched_off_or_marked(monkeypatch, tmp_path):
     assert not warp_build.wanted(b.model, {"opt.gravity": 4}, 96, CONTACTS_PER_WORLD)
 
 
+def test_thread_only_where_no_worker_may_start_and_not_built(monkeypatch, tmp_path):
+    b = _batch({"slope_deg": np.array([0.0, 5.0])})
+    args = (b.model, {"opt.gravity": 2}, 96, CONTACTS_PER_WORLD)
+    monkeypatch.setattr(warp_build, "marker", lambda k: str(tmp_path / f"batchveh-ahead-{k}"))
+    monkeypatch.setattr(warp_build, "may_spawn", lambda: True)
+    assert not warp_build.thread_wanted(*args)  # worker processes build them instead
+    monkeypatch.setattr(warp_build, "may_spawn", lambda: False)  # a daemonic gpus worker
+    assert warp_build.thread_wanted(*args)
+    monkeypatch.setenv("BATCHVEH_WARP_PREBUILD", "0")
+    assert not warp_build.thread_wanted(*args)
+    monkeypatch.delenv("BATCHVEH_WARP_PREBUILD")
+    (tmp_path / f"batchveh-ahead-{warp_build.key(*args)}").write_text("built")
+    assert not warp_build.thread_wanted(*args)  # a warm machine: the first launch loads them from the cache
+    assert warp_build.thread_wanted(b.model, {"geom_aabb": 8}, 96, CONTACTS_PER_WORLD)  # another vehicle sweep
+
+
 CHECK = textwrap.dedent(
     """
     import os, pickle, sys

@@ -113,7 +113,7 @@ class WarpEngine(MjxEngine):
                     ahead = warp_build.AheadBuild(batch.model, batched, *sizes, device=device)
                 else:
                     warp_build.stop_workers()  # started with the engine, not needed for this model
-                    if warp_build.enabled() and not warp_build.may_spawn():
+                    if warp_build.thread_wanted(batch.model, batched, *sizes):
                         threading.Thread(target=warp_build.load_file_modules, args=(device,), daemon=True).start()
             except Exception:  # noqa: BLE001 - a head start only: the first launch builds what is missing
                 ahead = None

@@ -211,8 +211,18 @@ def enabled() -> bool:
 
 def wanted(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int) -> bool:
     """Whether this model's kernels still need building on this machine (no marker in Warp's cache),
-    in worker processes (`may_spawn`; where it is False, `load_file_modules` runs in a thread instead)."""
+    in worker processes (`may_spawn`; where it is False, `thread_wanted` says whether a thread loads them)."""
     return enabled() and may_spawn() and not os.path.exists(marker(key(model, batched, njmax, naconmax)))
+
+
+def thread_wanted(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int) -> bool:
+    """Whether this process should run `load_file_modules` on a thread: this model's kernels not built on this
+    machine yet (no marker), and no worker process may be spawned here (a daemonic `gpus` worker, an unguarded
+    script). On a machine that built them the first launch loads them from Warp's cache, as in a process that
+    may spawn: the thread's module hashing then only took the GIL from JAX's trace (on two H100s a `gpus`
+    worker's first chunk, with the thread, took 0.0-2.7 s longer than the driver's, its trace and compile-cache
+    load 0.2-1.6 s longer: h100x2-gpu-processes-prestart.json and the files before it)."""
+    return enabled() and not may_spawn() and not os.path.exists(marker(key(model, batched, njmax, naconmax)))
 
 
 def may_spawn() -> bool:

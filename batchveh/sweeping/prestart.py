@@ -20,6 +20,7 @@ import importlib.util
 import multiprocessing
 import os
 import re
+import threading
 import time
 from typing import Any
 
@@ -134,6 +135,17 @@ def release() -> None:
         conn.close()
 
 
+def _open_jax() -> None:
+    """Start JAX's backend on this process's GPU (thread-safe: JAX holds a lock while it starts one). Warp's own
+    start is not thread-safe and stays where the engine makes it."""
+    try:
+        import jax
+
+        jax.devices()
+    except Exception:  # noqa: BLE001 - a head start only: the engine starts JAX itself and says what fails
+        pass
+
+
 def _wait(conn: Any, gpu: str, warp: bool) -> None:
     """A worker process started ahead: its GPU set before JAX starts, the warp engine's module imported (with
     `warp`), then ("go", work, args, jax cache settings) from `GpuProcesses`: it goes on as work(conn, args, gpu,
@@ -143,7 +155,10 @@ def _wait(conn: Any, gpu: str, warp: bool) -> None:
     # as the command line's own process (batchveh.sweep.tune_process_for_one_job), which has not run yet here
     os.environ.setdefault("XLA_PYTHON_CLIENT_PREALLOCATE", "false")
     if warp:
-        import batchveh.engines.warp  # noqa: F401  (MuJoCo Warp and JAX: about 1.5 s, while this process waits)
+        # JAX's GPU opened on a thread (its PJRT client is made with the GIL released) while this one imports
+        # MuJoCo MJX and MuJoCo Warp (about 2 s, holding it): go may come before both are done
+        threading.Thread(target=_open_jax, name="batchveh-open-gpu", daemon=True).start()
+        import batchveh.engines.warp  # noqa: F401
     try:
         msg = conn.recv()
     except (EOFError, OSError):  # the command line is gone
