@@ -322,11 +322,19 @@ ROWS = [
     Row(
         "Two GPUs without Ray: `--executor gpus` (one process per GPU; the default on a host with several) against "
         "one GPU in-process (CUDA_VISIBLE_DEVICES=0), end to end, alternated pairs",
-        ["h100x2-gpu-processes-final.json", "h100x2-gpu-processes-own-gpu.json", "h100x2-gpu-processes-pipeline.json"],
+        [
+            "h100x2-gpu-processes-worker-start.json",
+            "h100x2-gpu-processes-prestart-2.json",
+            "h100x2-gpu-processes-prestart.json",
+            "h100x2-gpu-processes-final.json",
+            "h100x2-gpu-processes-own-gpu.json",
+            "h100x2-gpu-processes-pipeline.json",
+        ],
         _gpu_processes,
-        "two H100s, three fresh hosts, 32 cores each",
+        "two H100s, six fresh hosts, 32 cores each",
         "`python benchmarks/ray_gpus.py --gpu-processes OUT --rounds-1m 2 --rounds-100k 0 --warmup-n 0 "
-        "--warm-chunks 125184,100096` (the second file: `--rounds-1m 1 --gpus-env JAX_CUDA_VISIBLE_DEVICES=0`)",
+        "--warm-chunks 125184,100096` (the third file: `--rounds-1m 1 --gpus-env BATCHVEH_PRESTART=0`; the fifth: "
+        "`--rounds-1m 1 --gpus-env JAX_CUDA_VISIBLE_DEVICES=0`)",
     ),
     Row(
         "The worker started before the command line's imports (`prestart`) against at the executor's start, "
