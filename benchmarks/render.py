@@ -223,6 +223,12 @@ ROWS = [
         lambda d: (
             f"**{min(d['sweep_wall_s']):.1f}-{max(d['sweep_wall_s']):.1f} s** of sweep in "
             f"{len(d['sweep_wall_s'])} runs (code {d['code']})"
+            + "".join(
+                f"; later, {min(r['sweep_wall_s'].values()):.1f}-{max(r['sweep_wall_s'].values()):.1f} s in "
+                f"{len(r['sweep_wall_s'])} runs ({r['date'][:16]} UTC, code {r['code'].split()[0]}; "
+                "the machine slower then)"
+                for r in d.get("later", [])
+            )
         ),
         TWO_CORES,
         "the README's first command, in a fresh clone",
