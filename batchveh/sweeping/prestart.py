@@ -147,9 +147,10 @@ def _open_jax() -> None:
 
 
 def _wait(conn: Any, gpu: str, warp: bool) -> None:
-    """A worker process started ahead: its GPU set before JAX starts, the warp engine's module imported (with
-    `warp`), then ("go", work, args, jax cache settings) from `GpuProcesses`: it goes on as work(conn, args, gpu,
-    jax_cache, entry) (`gpus._work`, handed over so that this light module never imports it); None: stop."""
+    """A worker process started ahead: its GPU set before JAX starts, the warp engine's module imported and JAX's
+    backend started beside it (with `warp`), then ("go", work, args, jax cache settings) from `GpuProcesses`: it
+    goes on as work(conn, args, gpu, jax_cache, entry) (`gpus._work`, handed over so that this light module never
+    imports it); None: stop."""
     entry = time.time()
     os.environ["CUDA_VISIBLE_DEVICES"] = gpu
     # as the command line's own process (batchveh.sweep.tune_process_for_one_job), which has not run yet here
