@@ -212,7 +212,7 @@ def enabled() -> bool:
 def wanted(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int) -> bool:
     """Whether this model's kernels still need building on this machine (no marker in Warp's cache),
     in worker processes (`may_spawn`; where it is False, `thread_wanted` says whether a thread loads them)."""
-    return enabled() and may_spawn() and not os.path.exists(marker(key(model, batched, njmax, naconmax)))
+    return enabled() and may_spawn() and not built(model, batched, njmax, naconmax)
 
 
 def thread_wanted(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int) -> bool:
@@ -222,7 +222,12 @@ def thread_wanted(model: mujoco.MjModel, batched: dict[str, int], njmax: int, na
     may spawn: the thread's module hashing then only took the GIL from JAX's trace (on two H100s a `gpus`
     worker's first chunk, with the thread, took 0.0-2.7 s longer than the driver's, its trace and compile-cache
     load 0.2-1.6 s longer: h100x2-gpu-processes-prestart.json and the files before it)."""
-    return enabled() and not may_spawn() and not os.path.exists(marker(key(model, batched, njmax, naconmax)))
+    return enabled() and not may_spawn() and not built(model, batched, njmax, naconmax)
+
+
+def built(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int) -> bool:
+    """Whether this model's kernels were built on this machine: its marker is in Warp's kernel cache."""
+    return os.path.exists(marker(key(model, batched, njmax, naconmax)))
 
 
 def may_spawn() -> bool:
