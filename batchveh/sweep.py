@@ -36,6 +36,7 @@ if __name__ == "__main__":  # the command line: the other GPUs' workers start be
 import pandas as pd  # noqa: E402
 
 from batchveh.config import ConfigError, OneLineParser  # noqa: E402
+from batchveh.stepping.motor_stats import MOTOR_STATUS  # noqa: E402
 from batchveh.sweeping.chunks import ChunkRunner  # noqa: E402
 from batchveh.sweeping.results import PART, Locked, ResultError, ResultFolder, load  # noqa: E402
 from batchveh.sweeping.spec import MAX_VARIANTS, SweepSpec, load_spec, saltelli_block  # noqa: E402
@@ -281,12 +282,15 @@ def run_sweep(
     finally:
         executor.close()
     # the parts were verified when the folder was opened and hashed as they were written
+    dcmotor = spec.vehicle.motors.model == "dcmotor"
     try:
-        result = load(folder.path, columns=["status", "slipping"], verify=False)
+        result = load(folder.path, columns=["status", "slipping", *(["motor_status"] * dcmotor)], verify=False)
     except ResultError:  # not one part: every chunk failed
         result = pd.DataFrame({"status": pd.Series(dtype=str), "slipping": pd.Series(dtype=bool)})
     counts = result["status"].value_counts().to_dict()
+    motors = result["motor_status"].value_counts().to_dict() if "motor_status" in result else None
     return {
+        "motor_status": None if motors is None else {k: motors.get(k, 0) for k in MOTOR_STATUS},
         "rows": len(result),
         "ran": ran,
         "ok": counts.get("ok", 0),
@@ -513,9 +517,12 @@ def main(argv: list[str] | None = None) -> int:
     if s["engine_warnings"]:
         print(f"MuJoCo reported unstable simulations (marked diverged), e.g.: {s['engine_warnings'][0]}")
     stuck = "".join(f"{s[k]} {k}, " for k in ("stuck", "short") if s[k])  # obstacle sweeps only
+    # model dcmotor: the motors' statuses (unstable: a physics check failed, motor_check says which)
+    counted = s.get("motor_status") or {}
+    motors = "; motors " + ", ".join(f"{v} {k}" for k, v in counted.items()) if counted else ""
     print(
         f"{s['rows']} rows ({s['ran']} run now): {s['ok']} ok, {s['diverged']} diverged, {s['flipped']} flipped, "
-        f"{stuck}{s['slipping']} slipping | {s['wall_s']:.1f} s wall, compile {s['compile_s']:.1f} s, "
+        f"{stuck}{s['slipping']} slipping{motors} | {s['wall_s']:.1f} s wall, compile {s['compile_s']:.1f} s, "
         f"{s['variant_steps_per_s']:.3g} variant-steps/s on {s['backend']} ({s['device']})"
     )
     print(f"results: {s['out']}  (pandas: batchveh.load({str(s['out'])!r}))")

@@ -387,7 +387,9 @@ def in_loop(
     """Run `candidates` (catalogue names, smallest first) as the drive motors, in the loop, on the variants of
     `df` (rows of the servo sweep `spec`), steering on `steer`; return (the first candidate that covers
     `share` of the variants, or None; one row per candidate run; per candidate, its variants' in-the-loop
-    columns and reasons, IN_LOOP_REASONS, True = fails).
+    columns and reasons, IN_LOOP_REASONS, True = fails). A variant whose run failed a physics check
+    (`motor_status` unstable) or diverged could not be simulated: it is counted in the row's `not_simulated`,
+    never as a reason, and the coverage is over the variants simulated.
 
     With `hot`, a candidate runs first from ambient, then `iterations` times from the start rise that would
     make its run end where it started (`_hot_start` from the previous run's end, each drive and steering
@@ -398,7 +400,7 @@ def in_loop(
     from batchveh.engines import make_engine, resolve_backend
     from batchveh.model.motors import load_catalogue, pick
     from batchveh.stepping.batch import make_batch
-    from batchveh.stepping.motor_stats import LIMITED_SHARE, MOTOR_STATUS
+    from batchveh.stepping.motor_stats import LIMITED_SHARE, named
 
     if not 0 < share <= 1:
         raise ConfigError(f"share: {share!r} is not allowed; allowed: 0 < share <= 1")
@@ -424,8 +426,7 @@ def in_loop(
         runs = 1 + (iterations if hot else 0)
         for k in range(runs):
             cols = engine.run(make_batch(run_spec.vehicle, spec.scenario, {**table, **start}))
-            res = pd.DataFrame({key: np.asarray(v) for key, v in cols.items()})
-            res["motor_status"] = np.asarray(MOTOR_STATUS)[res.pop("motor_status_code").to_numpy(int)]
+            res = pd.DataFrame({key: np.asarray(v) for key, v in named(cols).items()})
             end = {
                 key: res[[f"{m}_winding_temp_end" for m in groups[key]]].max(axis=1).to_numpy() - ambient[key]
                 for key in start
@@ -436,14 +437,19 @@ def in_loop(
                     key: np.maximum(start[key] + _hot_start(end[key] - start[key], duration, taus[key]), 0.0)
                     for key in start
                 }
+        # a variant whose run failed a physics check (or diverged) says nothing of the motor: apart, never a reason
+        lost = (res["motor_status"] == "unstable").to_numpy() | (res["status_code"].to_numpy() == 1)
         why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE)
+        why.loc[lost, :] = False
         fits = ~why.any(axis=1)
+        simulated = max(int((~lost).sum()), 1)
         rows.append(
             {
                 "motor": name,
                 "gear_ratio": c["N"],
                 "continuous_torque_at_wheel": c["eta"] * c["N"] * c["K"] * c["i_max"] if c["i_max"] else np.nan,
-                "coverage": float(fits.mean()),
+                "coverage": float(fits[~lost].sum() / simulated),
+                "not_simulated": int(lost.sum()),
                 **{f"fails_{r}": int(why[r].sum()) for r in IN_LOOP_REASONS},
                 "start_rise_median": float(np.median(start["motors.drive_start_rise"])),
                 "residual_K": residual,
@@ -451,7 +457,7 @@ def in_loop(
             }
         )
         detail[name] = pd.concat([df.reset_index(drop=True)[list(spec.params)], res, why.add_prefix("fails_")], axis=1)
-        if fits.mean() >= share and best is None:
+        if fits[~lost].sum() / simulated >= share and best is None:
             best = name
             if stop_at_first:
                 break

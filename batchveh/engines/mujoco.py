@@ -24,12 +24,11 @@ import numpy as np
 
 from batchveh.engines.common import spawn_safe
 from batchveh.model.missions import body_forces_fn
-from batchveh.model.motors import dc_schedule
 from batchveh.model.scenarios import Scenario, control_schedule
 from batchveh.model.vehicle import layout
 from batchveh.stepping import motor_stats, stats
 from batchveh.stepping.batch import VariantBatch, servo_damping
-from batchveh.stepping.rollout import MujocoTyre, float_precision, host_cpu
+from batchveh.stepping.rollout import MujocoDrive, MujocoTyre, float_precision, host_cpu
 
 # Steps per Batch.rollout call. The statistics add each block's sums to the carry, so the block
 # length fixes the order of the float additions: another length changes results in the last bits.
@@ -140,7 +139,8 @@ class MujocoEngine:
         parts give the same columns."""
         from concurrent.futures import ThreadPoolExecutor
 
-        parts = self.parts(batch.n, layout(batch.model).applied)
+        lay = layout(batch.model)
+        parts = self.parts(batch.n, lay.applied or lay.dcmotor)
         with captured_warnings() as messages:
             if parts == 1:
                 out = self._run_part(batch, self.nthread)
@@ -179,8 +179,9 @@ class MujocoEngine:
             return None
 
     def parts(self, n: int, applied: bool) -> int:
-        """Parts a chunk of n variants runs as: one per thread where a wheel-ground model steps between
-        MuJoCo's steps and each part keeps at least MIN_PART variants, else one (on nthread threads)."""
+        """Parts a chunk of n variants runs as: one per thread where a wheel-ground model or the dcmotors' drive
+        steps between MuJoCo's steps (`applied`) and each part keeps at least MIN_PART variants, else one (on
+        nthread threads)."""
         return max(1, min(self.nthread, n // MIN_PART)) if applied else 1
 
     def _run_part(self, batch: VariantBatch, nthread: int) -> dict[str, np.ndarray]:
@@ -197,31 +198,25 @@ class MujocoEngine:
         b = Batch(m, nsim=batch.n, nthread=nthread)
         for name, values in batch.fields.items():
             b.expand(name)[:] = values
-        # the slip tyre acts between steps: bound before the reset, so its forward pass fills them
-        tyre = _TyreStepper(b, m, lay, batch.params) if lay.applied else None
+        # the slip tyre and the dcmotors' drive act between steps: bound before the reset, so its forward pass
+        # fills them
+        stepper = _Stepper(b, m, lay, batch.params) if lay.applied or lay.dcmotor else None
         b.reset()
-        if lay.dcmotor and m.na:  # each winding at its start rise (a state field: bind's view writes it)
-            b.bind("act")[:] = motor_stats.start_act(batch.params, lay.motor_thermal_act, m.na)
         radius = np.asarray(batch.params["wheel.radius"], np.float64)[:, None]
         damping = servo_damping(batch.params, self.scenario.towing, dcmotor=lay.dcmotor)[:, None, :]  # (n, 1, 8)
         # motor joint speeds before each block's first step: after reset, then each block's last
         first = np.array(b.qvel)[:, lay.motor_dof]
         dt = m.opt.timestep
         sizes = {"qpos": m.nq, "qvel": m.nv, "qfrc_actuator": m.nv, "solver_niter": mujoco.mjNISLAND}
-        if self.cfg.motors is not None:  # the dcmotors' state, for their electrical statistics
+        if self.cfg.motors is not None:  # the dcmotors' state and their drive's record, for their statistics
             sizes.update({"actuator_force": m.nactuator, "actuator_velocity": m.nactuator})
-            if m.na:
-                sizes["act"] = m.na
+            sizes.update({f"drive_{k}": 8 for k in _Stepper.DRIVE})
         kinds = {"solver_niter": np.int32}  # the other records are float64
         edges = [*range(0, self.cfg.n_steps, self.block), self.cfg.n_steps]
         longest = int(max(np.diff(edges)))
         params: dict[str, jax.Array] = {}  # filled by the first controls call, off the main thread
         body_mass = np.broadcast_to(batch.fields.get("body_mass", m.body_mass), (batch.n, m.nbody))
         spec = mujoco.mjtState.mjSTATE_CTRL | (mujoco.mjtState.mjSTATE_XFRC_APPLIED if self._forces else 0)
-        theta = np.zeros((batch.n, 4))  # model dcmotor: the drive angle setpoints (motors.dc_controls)
-        # each variant's gear ratios (n, 1, 8): swept dcmotors carry their own
-        gear = batch.fields.get("actuator_gear", np.broadcast_to(m.actuator_gear, (batch.n, *m.actuator_gear.shape)))
-        ratios = np.asarray(gear)[:, None, lay.motor_act, 0] if lay.dcmotor else None
         consts = motor_stats.constants_of(self.cfg.motors, batch.params) if self.cfg.motors is not None else None
 
         def controls(k):
@@ -237,9 +232,7 @@ class MujocoEngine:
                 # the padding changes none of the other values
                 t = np.append(steps, np.full(longest - len(steps), steps[-1])) * dt
                 ctrl = np.asarray(self._ctrl(params, np.asarray(t, np.float64)), np.float64)[:, : len(steps)]
-                sim = ctrl
-                if lay.dcmotor:  # each motor's setpoints; the drive angles carried from block to block
-                    sim, theta[:] = dc_schedule(ctrl, theta, ratios, dt)
+                sim = ctrl  # with dcmotors, the drive turns them into voltages step by step (_Stepper)
                 if self._forces is not None:  # the rollout's inputs: ctrl, then xfrc_applied
                     xfrc = np.asarray(self._forces(params, body_mass, np.asarray(t, np.float64)), np.float64)
                     sim = np.concatenate([sim, xfrc[:, : len(steps)].reshape(*sim.shape[:2], -1)], axis=-1)
@@ -255,7 +248,8 @@ class MujocoEngine:
                 motors = motor_stats.sample(
                     part["actuator_force"][..., ids],
                     part["actuator_velocity"][..., ids],
-                    part.get("act"),
+                    part["drive_T"],
+                    part["drive_v"],
                     self.cfg.motors,
                     consts={k: np.broadcast_to(v, (batch.n, 8))[tile] for k, v in consts.items()},
                 )
@@ -304,8 +298,8 @@ class MujocoEngine:
                     r: f[: batch.n * len(steps) * sizes[r]].reshape(batch.n, len(steps), -1)
                     for r, f in flat[k % 2].items()
                 }
-                if tyre is not None:
-                    rec = tyre.rollout(sim, out)
+                if stepper is not None:
+                    rec = stepper.rollout(sim, out)
                 else:
                     try:
                         rec = b.rollout(len(steps), control=sim, control_spec=spec, record=tuple(sizes), out=out)
@@ -381,34 +375,49 @@ def _rows(batch: VariantBatch, rows: slice) -> VariantBatch:
     return VariantBatch(batch.model, fields, params, rows.stop - rows.start)
 
 
-class _TyreStepper:
-    """Steps a Batch one step at a time with the slip tyre's wrenches between the steps, recording
-    what `Batch.rollout` would (qpos, qvel, qfrc_actuator, solver_niter after each step)."""
+class _Stepper:
+    """Steps a Batch one step at a time with what acts between MuJoCo's steps: the slip tyre's or the soil's
+    wrenches, and the dcmotors' drive (their voltages from the scenario's controls); records what
+    `Batch.rollout` would (qpos, qvel, qfrc_actuator, solver_niter, ... after each step) and the drive's
+    record (`drive_T`, `drive_v`)."""
+
+    DRIVE = ("T", "v")  # the drive's record kept (drive.step)
 
     def __init__(self, b, m: mujoco.MjModel, lay, params):
         self.b, self.nu, self.nbody = b, m.nu, m.nbody
-        self.tyre = MujocoTyre(m, lay, params)
+        self.tyre = MujocoTyre(m, lay, params) if lay.applied else None
+        self.drive = MujocoDrive(lay, params, m.opt.timestep) if lay.dcmotor else None
         names = ("qpos", "qvel", "qfrc_actuator", "solver_niter", "actuator_force", "actuator_velocity", "act")
         self.live = {k: b.bind(k) for k in names}
         self.ctrl, self.xfrc = b.bind("ctrl"), b.bind("xfrc_applied")
         self.xpos, self.xmat, self.cfrc = b.bind("xpos"), b.bind("xmat"), b.bind("cfrc_ext")
+        self.width = 16 if lay.dcmotor else self.nu  # the scenario's controls: the servo's 16 with dcmotors
 
     def rollout(self, ctrls: np.ndarray, out: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """ctrls (n, nstep, nu [+ nbody * 6 of a mission's xfrc_applied]); records into `out`."""
+        """ctrls (n, nstep, width [+ nbody * 6 of a mission's xfrc_applied]); records into `out`."""
         from mujoco.batch import SimulationError
 
-        n = ctrls.shape[0]
+        n, w = ctrls.shape[0], self.width
         for k in range(ctrls.shape[1]):
-            self.ctrl[:] = ctrls[:, k, : self.nu]
-            xmat = self.xmat.reshape(n, self.nbody, 3, 3)
-            wrench = self.tyre.wrench(self.xpos, xmat, self.live["qvel"], self.cfrc, self.xfrc)
-            if ctrls.shape[2] > self.nu:  # a mission's slope forces
-                wrench = wrench + ctrls[:, k, self.nu :].reshape(n, self.nbody, 6)
-            self.xfrc[:] = wrench
+            if self.drive is not None:
+                self.ctrl[:] = self.drive.voltages(ctrls[:, k, :w], self.live["qpos"], self.live["qvel"])
+            else:
+                self.ctrl[:] = ctrls[:, k, :w]
+            wrench = np.zeros((n, self.nbody, 6))
+            if self.tyre is not None:
+                xmat = self.xmat.reshape(n, self.nbody, 3, 3)
+                wrench = self.tyre.wrench(self.xpos, xmat, self.live["qvel"], self.cfrc, self.xfrc)
+            if ctrls.shape[2] > w:  # a mission's slope forces
+                wrench = wrench + ctrls[:, k, w:].reshape(n, self.nbody, 6)
+            if self.tyre is not None or ctrls.shape[2] > w:
+                self.xfrc[:] = wrench
             try:
                 self.b.step()
             except SimulationError:
                 pass  # failed simulations are marked by the caller from the batch's status
             for name, arr in out.items():
-                arr[:, k] = self.live[name].reshape(n, -1)
+                if name.startswith("drive_"):
+                    arr[:, k] = self.drive.record[name[6:]]
+                else:
+                    arr[:, k] = self.live[name].reshape(n, -1)
         return out

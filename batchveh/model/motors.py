@@ -24,19 +24,16 @@ R) takes R_T / eta and eta C so that the winding heats by the real i^2 R(T). Ele
 v i = v i' / eta; the gearhead loses K i w (1 - eta) while motoring. The same eta acts when the wheel
 drives the motor (regeneration), where a real gearhead loses 1/eta: a known simplification.
 
-Two behaviours of MuJoCo 3.17's dcmotor that sizing must know (measured, tests/test_dcmotor.py rig):
-- `saturation`'s current clips the torque, not the current that heats the winding: a blocked motor at
-  V / R = 20 A with a 4 A limit delivered 4 A's torque and heated with 20 A's i^2 R;
-- the on-board controller's back-EMF compensation uses the resistance at the reference temperature,
-  so a hot winding draws less current (and torque) than commanded: 2.0 -> 1.75 A over 60 s, 20 K;
-- with `implicitfast`, the controller's kd is integrated implicitly as the motor's damping even while
-  the voltage is clamped, where the motor's real damping is the back-EMF's N^2 K^2 / R': a clamped
-  wheel of 0.06 kg m^2 (kd 500 N m s/rad at the wheel, 5 ms) gained 0.99 N m's worth of acceleration
-  for the 42 N m it was given. Steady states are right (dv = 0); a clamped motor's transients are
-  slowed (a voltage-limited climb nears its speed in about 2.5 s instead of 1 s).
+Why the vehicle uses MuJoCo's dcmotor with a voltage input and batchveh's drive (model/drive.py), not its
+on-board controller and thermal state (measured, tests/test_dcmotor.py rig; docs/motors.md):
+- `saturation`'s current clips the torque, not the current that heats MuJoCo's winding (3.17 and 4.0): a
+  blocked motor at V / R = 20 A with a 4 A limit delivered 4 A's torque and heated with 20 A's i^2 R;
+- the on-board controller compensates the back-EMF with the resistance at the reference temperature, and
+  has no anti-windup at the current limit;
+- with `implicitfast` (3.17), the controller's kd is integrated implicitly as the motor's damping even while
+  the voltage is clamped, which slows a clamped motor's transients.
 
-`dcmotor_xml` writes one actuator: `input="voltage"` (a raw terminal voltage, for the closed-form
-tests) or `input="pos vel"` with the on-board PD controller and the bus voltage as its clamp.
+`dcmotor_xml` writes one actuator with `input="voltage"` (ctrl: the terminal voltage).
 """
 
 from __future__ import annotations
@@ -46,8 +43,6 @@ import math
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from batchveh.config import ConfigError, did_you_mean, load_yaml
 
@@ -180,36 +175,22 @@ def reflected_inertia(motor: DCMotor) -> float:
     return motor.rotor_inertia * motor.gear_ratio**2
 
 
-def dcmotor_xml(
-    name: str,
-    joint: str,
-    motor: DCMotor,
-    *,
-    kp: float = 0.0,
-    kd: float = 0.0,
-    voltage: bool = False,
-    rotor: bool = True,
-) -> str:
-    """MJCF of one `dcmotor` on `joint`. voltage True: a raw terminal voltage input (ctrl = V);
-    else `input="pos vel"` (ctrl = the motor-side angle and speed setpoints, N x the wheel's) with
-    the PD gains kp, kd given at the joint (N m/rad, N m s/rad: divided by N^2 for the motor side),
-    and the bus voltage clamping the drive voltage. The gearhead's efficiency: the module's note.
-    rotor False: no actuator armature; the caller puts `reflected_inertia` on the joint instead
-    (MuJoCo Warp in MJX 3.17 ignores an actuator's armature: with it, a climb's drive torques read
-    1% apart from MuJoCo C's; on the joint both agree within 1e-5)."""
+def dcmotor_xml(name: str, joint: str, motor: DCMotor, *, rotor: bool = True, thermal: bool = False) -> str:
+    """MJCF of one `dcmotor` on `joint`, its terminal voltage as ctrl (`input="voltage"`): the motor alone,
+    its drive being batchveh's (model/drive.py). The gearhead's efficiency: the module's note. rotor False:
+    no actuator armature; the caller puts `reflected_inertia` on the joint instead (MuJoCo Warp in MJX 3.17
+    ignores an actuator's armature: with it, a climb's drive torques read 1% apart from MuJoCo C's; on the
+    joint both agree within 1e-5). thermal True: MuJoCo's own winding state (its `thermal` attribute), which
+    heats with the current before `saturation` clips it; the vehicle leaves it out (the drive has its own)."""
     c = motor.resolved()
     n, eta = c["N"], c["eta"]
-    thermal = ""
-    if c["R_T"] > 0:
-        thermal = f' thermal="{_fmt(c["R_T"] / eta, eta * c["C"], 0, COPPER_TEMPCOEF, REFERENCE_TEMP, c["T_amb"])}"'
+    heat = ""
+    if thermal and c["R_T"] > 0:
+        heat = f' thermal="{_fmt(c["R_T"] / eta, eta * c["C"], 0, COPPER_TEMPCOEF, REFERENCE_TEMP, c["T_amb"])}"'
     saturation = f' saturation="0 {_fmt(eta * c["i_max"])} 0"' if c["i_max"] > 0 else ""
-    if voltage:
-        control = ' input="voltage"'
-    else:
-        control = f' input="pos vel" controller="{_fmt(kp / n**2, 0, kd / n**2, 0, 0, c["V"])}"'
     return (
         f'<dcmotor name="{name}" joint="{joint}" gear="{_fmt(n)}" armature="{_fmt(c["J"] if rotor else 0.0)}" '
-        f'resistance="{_fmt(c["R"] / eta)}" motorconst="{_fmt(c["K"])}"{saturation}{thermal}{control}/>'
+        f'resistance="{_fmt(c["R"] / eta)}" motorconst="{_fmt(c["K"])}"{saturation}{heat} input="voltage"/>'
     )
 
 
@@ -284,30 +265,3 @@ def pick(catalogue: dict[str, DCMotor], name: str, where: str) -> DCMotor:
             f"{where}: {name!r} is not in the catalogue{did_you_mean(name, catalogue)}; allowed: {', '.join(catalogue)}"
         )
     return catalogue[name]
-
-
-def dc_controls(servo_ctrl, theta, ratios, dt, xp):
-    """The dcmotors' ctrl from the servo's: (ctrl (..., 16), the next step's drive angles (..., 4)).
-
-    servo_ctrl (..., 16) is the scenario's: drive speeds, steering angles, drive speeds again (the
-    servo's integrator input) and steering rates, at the wheel. theta (..., 4): the drives' angle
-    setpoints at this step, the integral of their speeds, as the servo's integrator actuator holds it
-    (theta + dt omega after each step, MuJoCo's update of an integrator's act). ratios (8,): each motor's
-    gear ratio N, MOTORS order (or (..., 8), each variant's, broadcast against the controls). Each motor's ctrl
-    is (N x angle, N x speed): the setpoints at the motor."""
-    omega, alpha, dalpha = servo_ctrl[..., 0:4], servo_ctrl[..., 4:8], servo_ctrl[..., 12:16]
-    pos = xp.concatenate([ratios[..., :4] * theta, ratios[..., 4:] * alpha], axis=-1)
-    vel = xp.concatenate([ratios[..., :4] * omega, ratios[..., 4:] * dalpha], axis=-1)
-    ctrl = xp.stack([pos, vel], axis=-1).reshape(*pos.shape[:-1], 16)
-    return ctrl, theta + omega * dt
-
-
-def dc_schedule(servo_ctrls, theta, ratios, dt):
-    """`dc_controls` over a run of steps (numpy, time axis -2): (ctrl (..., T, 16), the drive angles after
-    the last step). The angle before step k is theta + dt omega_0 + ... + dt omega_{k-1}, added in turn
-    (a cumulative sum: the same additions, in the same order, as step-by-step `dc_controls`)."""
-    omega = servo_ctrls[..., 0:4]
-    start = np.broadcast_to(np.asarray(theta, float)[..., None, :], omega[..., :1, :].shape)
-    angles = np.cumsum(np.concatenate([start, omega * dt], axis=-2), axis=-2)
-    ctrl, _ = dc_controls(servo_ctrls, angles[..., :-1, :], ratios, dt, np)
-    return ctrl, angles[..., -1, :]

@@ -37,11 +37,14 @@ GAINS = (
     "motors.drive_kv",
     "motors.steer_kp",
     "motors.steer_kv",
-    "motors.dc_drive_kp",
-    "motors.dc_drive_kv",
 )
 MODEL = ("slope_deg", "gravity", "friction", *GAINS)
 START_RISE = ("motors.drive_start_rise", "motors.steer_start_rise")
+# the dcmotor drive's gains and bandwidths (model/drive.py): read by the drive each step, as traced values
+DRIVE = tuple(
+    f"motors.dc_{k}" for k in ("drive_kp", "drive_kv", "drive_bandwidth", "steer_kp", "steer_kv", "steer_ki",
+                               "steer_bandwidth")
+)  # fmt: skip
 
 
 GROUPS = ("drive", "steer")
@@ -83,7 +86,7 @@ def _acts(name: str, scenario: bool) -> Acts:
         return "model"
     if name.startswith(("tyre.", "soil.")):  # read by the slip tyre or the soil each step, as a traced value
         return "control"
-    if name in START_RISE:  # the dcmotors' thermal state at t = 0 (the engines' initial act)
+    if name in START_RISE or name in DRIVE:  # the dcmotor drive's state at t = 0 and its gains
         return "control"
     if name in course.FIELDS:  # the ground's shape: compiled per combination, as the vehicle's geometry
         return "structure"

@@ -115,21 +115,29 @@ class Motors:
     steer_kp: float = field(20000.0, unit="N m/rad", ge=0)
     steer_kv: float = field(300.0, unit="N m s/rad", ge=0)
     armature: float = field(0.2, unit="kg m^2", ge=0, doc="rotor inertia reflected through the gearbox")
-    # model dcmotor: the drives' gains at the wheel (docs/motors.md). kd 50, not the servo's 500: MuJoCo 3.17's
-    # implicitfast integrates a dcmotor controller's kd as damping even while its current is clipped, and with
-    # 500 (angle gain 0) the drives of a small motor on the flat chattered between +-limit in 76% of 96 runs
-    # (0% with 50). The angle gain 200, not 5000: it removes the speed loop's steady error (0.7% at p99 with
-    # none, 3e-5 with 200) with no anti-windup, so a motor held at a limit catches up afterwards. The servo's
-    # values here give the servo's tracking (tests/test_dcmotor.py).
-    dc_drive_kp: float = field(200.0, unit="N m/rad", ge=0, doc="dcmotor drives' angle gain")
-    dc_drive_kv: float = field(50.0, unit="N m s/rad", ge=0, doc="dcmotor drives' speed gain")
+    # model dcmotor: the drive's loops (batchveh/model/drive.py, docs/motors.md). 0, the default, derives each
+    # gain per variant from its inertia, motor constants and time step; a positive value replaces it
+    dc_drive_kp: float = field(0.0, unit="N m/rad", ge=0, doc="dcmotor drives' speed-loop integral gain (0: derived)")
+    dc_drive_kv: float = field(0.0, unit="N m s/rad", ge=0, doc="dcmotor drives' speed-loop gain (0: derived)")
+    dc_drive_bandwidth: float = field(
+        0.0,
+        unit="rad/s",
+        ge=0,
+        doc="dcmotor drives' speed-loop bandwidth on the loaded wheel (0: the largest dt allows)",
+    )
+    dc_steer_kp: float = field(0.0, unit="N m/rad", ge=0, doc="dcmotor steering's angle gain (0: derived)")
+    dc_steer_kv: float = field(0.0, unit="N m s/rad", ge=0, doc="dcmotor steering's rate gain (0: derived)")
+    dc_steer_ki: float = field(0.0, unit="N m/(rad s)", ge=0, doc="dcmotor steering's integral gain (0: derived)")
+    dc_steer_bandwidth: float = field(
+        0.0, unit="rad/s", ge=0, doc="dcmotor steering's angle-loop bandwidth (0: the largest dt allows)"
+    )
     # model dcmotor: each winding's temperature rise over its ambient at t = 0 (K), e.g. the hot steady state of
     # back-to-back runs (batchveh.analysis.motors.in_loop finds it); read as the thermal state's start value
     drive_start_rise: float = field(0.0, unit="K", ge=0, doc="dcmotor drives' winding rise at the start")
     steer_start_rise: float = field(0.0, unit="K", ge=0, doc="dcmotor steering windings' rise at the start")
     # 'servo': the ideal PD servo above (the torque demand); 'dcmotor': each motor is MuJoCo's dcmotor, a
-    # catalogue motor with its gearhead (batchveh/model/motors.py) whose on-board PD controller has the
-    # gains above (at the wheel) and the bus voltage as its clamp; its rotor inertia replaces `armature`
+    # catalogue motor with its gearhead (batchveh/model/motors.py) driven by batchveh's drive (model/drive.py:
+    # speed and angle loops, current limit, bus voltage, winding); its rotor inertia replaces `armature`
     model: Literal["servo", "dcmotor"] = "servo"
     catalogue: str = ""  # the DC motor catalogue's path (YAML, model/motors.py's load_catalogue)
     drive: str = ""  # the drive motors' catalogue name
@@ -430,18 +438,11 @@ def mjcf(
 
 
 def _dcmotors(v: Vehicle) -> list[str]:
-    """MJCF of the 8 motors as dcmotors, in MOTORS order, each with ctrl (angle, speed) setpoints at
-    the motor (N x the joint's), and the PD gains given at the wheel."""
-    mo = v.motors
-    drive, steer = mo.dcmotors()
-    act = []
-    for name in CORNERS:  # a towing wheel's gains are zeroed per scenario (batch._gains)
-        act.append(
-            dcmotor_xml(f"drive_{name}", f"drive_{name}", drive, kp=mo.dc_drive_kp, kd=mo.dc_drive_kv, rotor=False)
-        )
-    for name in CORNERS:
-        act.append(dcmotor_xml(f"steer_{name}", f"steer_{name}", steer, kp=mo.steer_kp, kd=mo.steer_kv, rotor=False))
-    return act
+    """MJCF of the 8 motors as dcmotors, in MOTORS order, each with its terminal voltage as ctrl (the drive's,
+    batchveh/model/drive.py)."""
+    drive, steer = v.motors.dcmotors()
+    return [dcmotor_xml(f"{kind}_{c}", f"{kind}_{c}", m, rotor=False)
+            for kind, m in (("drive", drive), ("steer", steer)) for c in CORNERS]  # fmt: skip
 
 
 def build_model(v: Vehicle, **kw: Any) -> mujoco.MjModel:
@@ -466,9 +467,6 @@ class Layout:
     steer_pos_act: np.ndarray
     steer_vel_act: np.ndarray
     motor_act: np.ndarray  # (8,) each motor's dcmotor actuator, MOTORS order (model dcmotor; empty for servo)
-    # (8,) each dcmotor's thermal state in MjData.act (-1: none; empty for servo). batchveh's dcmotors have no
-    # slew or integral state, which MuJoCo would put before it: the thermal state is the actuator's first act
-    motor_thermal_act: np.ndarray
     ground_geom: int
     wheel_geoms: np.ndarray
     chassis_body: int
@@ -481,7 +479,7 @@ class Layout:
 
     @property
     def dcmotor(self) -> bool:
-        """Whether the motors are dcmotors (ctrl: each motor's angle and speed setpoints, at the motor)."""
+        """Whether the motors are dcmotors (ctrl: each motor's terminal voltage, from batchveh's drive)."""
         return self.motor_act.size > 0
 
     @property
@@ -508,12 +506,6 @@ def layout(m: mujoco.MjModel) -> Layout:
         steer_pos_act=acts("steer", "p"),
         steer_vel_act=acts("steer", "v"),
         motor_act=np.array([m.actuator(n).id for n in MOTORS]) if dc else np.array([], int),
-        motor_thermal_act=np.array(
-            [m.actuator_actadr[m.actuator(n).id] if m.actuator_dynprm[m.actuator(n).id, 2] > 0 else -1 for n in MOTORS]
-            if dc
-            else [],
-            int,
-        ),
         ground_geom=m.geom(GROUND).id,
         wheel_geoms=np.array([m.geom(f"wheel_{c}").id for c in CORNERS]),
         chassis_body=m.body("chassis").id,

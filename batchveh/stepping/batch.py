@@ -33,8 +33,9 @@ import mujoco
 import numpy as np
 
 from batchveh.config import ConfigError, did_you_mean
-from batchveh.model import course
+from batchveh.model import course, drive
 from batchveh.model.params import (
+    DRIVE,
     GAINS,
     STATIC,
     base_params,
@@ -71,28 +72,16 @@ def model_for(vehicle: Vehicle, scenario: Scenario) -> mujoco.MjModel:
     return m
 
 
-DC_KP, DC_KD = 4, 6  # a dcmotor's controller gains in actuator_gainprm (MuJoCo 3.17: R, K, alpha, T0, kp, ki, kd, Vmax)
-
-
-def _gains(m: mujoco.MjModel, p: Mapping[str, Any], towing, gain0=None, gear=None) -> tuple[np.ndarray, np.ndarray]:
-    """actuator_gainprm, biasprm (n, nu, 10) for gains in p (arrays of shape (n,) or scalars), over each
-    variant's own gainprm and gear where given ((n, nu, 10), (n, nu, 6): swept dcmotors)."""
+def _gains(m: mujoco.MjModel, p: Mapping[str, Any], towing, gain0=None) -> tuple[np.ndarray, np.ndarray]:
+    """actuator_gainprm, biasprm (n, nu, 10) for the servo's gains in p (arrays of shape (n,) or scalars), over
+    each variant's own gainprm where given ((n, nu, 10): swept dcmotors)."""
     lay = layout(m)
     n = np.broadcast(*[np.asarray(p[k]) for k in GAINS]).shape
     base = m.actuator_gainprm if gain0 is None else gain0
     gain = np.broadcast_to(base, (*n, *m.actuator_gainprm.shape)).copy()
-    ratio = m.actuator_gear[:, 0] if gear is None else gear[..., 0]
     bias = np.broadcast_to(m.actuator_biasprm, (*n, *m.actuator_biasprm.shape)).copy()
     free = np.array([0.0 if tow else 1.0 for tow in towing])
-    if lay.dcmotor:  # the on-board controller's kp and kd, in torque space at the motor: the wheel's / N^2
-        drive, steer = lay.motor_act[:4], lay.motor_act[4:]
-        for ids, key, col, scale in (
-            (drive, "motors.dc_drive_kp", DC_KP, free),
-            (drive, "motors.dc_drive_kv", DC_KD, free),
-            (steer, "motors.steer_kp", DC_KP, 1.0),
-            (steer, "motors.steer_kv", DC_KD, 1.0),
-        ):
-            gain[..., ids, col] = np.asarray(p[key], float)[..., None] * scale / ratio[..., ids] ** 2
+    if lay.dcmotor:  # the dcmotors' gains are the drive's (model/drive.py, `drive_gains`)
         return gain, bias
     for ids, key, col, scale in (
         (lay.drive_vel_act, "motors.drive_kv", 2, free),
@@ -108,11 +97,13 @@ def _gains(m: mujoco.MjModel, p: Mapping[str, Any], towing, gain0=None, gear=Non
 
 def servo_damping(p: Mapping[str, Any], towing, xp=np, dcmotor: bool = False):
     """kv of each motor's servo, (..., 8) in MOTORS order, N m s/rad (0 on a towing wheel); with dcmotors
-    (`dcmotor`), the drives' controller kd, motors.dc_drive_kv."""
+    (`dcmotor`), the back-EMF's damping that MuJoCo integrates implicitly (drive.damping, each variant's)."""
+    if dcmotor:
+        return drive.damping({k: xp.asarray(p[f"_dc.{k}"]) for k in ("N", "K", "R")}, xp)
     free = np.array([0.0 if tow else 1.0 for tow in towing])
-    drive = xp.asarray(p["motors.dc_drive_kv" if dcmotor else "motors.drive_kv"])[..., None] * free
+    drive_kv = xp.asarray(p["motors.drive_kv"])[..., None] * free
     steer = xp.asarray(p["motors.steer_kv"])[..., None] * xp.ones(4)
-    return xp.concatenate([drive, steer], axis=-1)
+    return xp.concatenate([drive_kv, steer], axis=-1)
 
 
 def apply_solver(m: mujoco.MjModel, solver: Any) -> None:
@@ -212,16 +203,45 @@ def make_batch(
         fields["geom_friction"] = fr
     if any(k in swept for k in GAINS):
         fields["actuator_gainprm"], fields["actuator_biasprm"] = _gains(
-            model, params, scenario.towing, fields.get("actuator_gainprm"), fields.get("actuator_gear")
+            model, params, scenario.towing, fields.get("actuator_gainprm")
         )
-    if vehicle.motors.model == "dcmotor":  # each variant's motor constants, for the electrical statistics
+    if vehicle.motors.model == "dcmotor":  # each variant's motor constants and drive gains (model/drive.py)
         params.update(motor_constants(vehicle, scenario, params, [k for k in swept if k in motor_names(vehicle)], n))
+        params.update(drive_gains(model, fields, params, scenario, n))
     # the rigid contact's rolling resistance is the drive joints' friction loss; the slip tyre's its own
     rolls = "wheel.rolling_resistance" in swept or vehicle.wheel.rolling_resistance > 0
     if vehicle.tyre.model == "rigid" and rolls and any(k in swept for k in ROLLING_INPUTS):
         fields["dof_frictionloss"] = _rolling(model, params, n)
     params[DRIVE_ARMATURE] = drive_armature(model, fields, n)
     return VariantBatch(model=model, fields=fields, params=params, n=n)
+
+
+def drive_gains(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], params, scenario, n: int) -> dict:
+    """Each variant's drive gains `_dc.kp`, `_dc.kv`, `_dc.ki` (n, 8) (drive.gains): from its own inertia at
+    each motor joint (dof_M0: the wheel's or hub's with the rotor's J N^2), its mass over four wheels at its
+    wheel radius, its motors' constants, the time step and the gains and bandwidths the user set. A towing
+    wheel's drive gets none."""
+    lay = layout(model)
+    m0 = np.broadcast_to(fields.get("dof_M0", model.dof_M0), (n, model.nv))[:, lay.motor_dof]
+    mass = np.broadcast_to(fields.get("body_mass", model.body_mass), (n, model.nbody)).sum(-1)
+    r = np.broadcast_to(np.asarray(params["wheel.radius"], float), (n,))
+    load = m0[:, :4] + (mass * r * r / 4)[:, None]
+    p = {k: np.broadcast_to(np.asarray(params[k], float), (n,)) for k in DRIVE}
+    c = {k: np.asarray(params[f"_dc.{k}"], float) for k in ("N", "K", "R")}
+    g = drive.gains(
+        c,
+        m0,
+        load,
+        float(scenario.time_step),
+        (p["motors.dc_drive_bandwidth"], p["motors.dc_steer_bandwidth"]),
+        {
+            "kp": (p["motors.dc_drive_kp"], p["motors.dc_steer_kp"]),
+            "kv": (p["motors.dc_drive_kv"], p["motors.dc_steer_kv"]),
+            "ki": (np.zeros(n), p["motors.dc_steer_ki"]),
+        },
+    )
+    free = np.array([0.0 if tow else 1.0 for tow in scenario.towing] + [1.0] * 4)
+    return {f"_dc.{k}": v * free for k, v in g.items()}
 
 
 def drive_armature(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], n: int) -> np.ndarray:

@@ -103,13 +103,11 @@ def init(cfg: MissionStatsConfig, batch: tuple[int, ...], xp=np, dtype=None, mot
     return out
 
 
-def update(
-    c: dict[str, Any], tau, abs_lp, s: dict[str, Any], i, cfg: MissionStatsConfig, xp=np, temps=None
-) -> dict[str, Any]:
+def update(c: dict[str, Any], tau, abs_lp, s: dict[str, Any], i, cfg: MissionStatsConfig, xp=np) -> dict[str, Any]:
     """Fold a block of B steps (indices i (B,)) into carry `c`: tau and abs_lp (..., B, 9) N m (the
     motors and the four-wheel sum, as `stats.update` builds them), s the samples (`stats.sample`;
     `rate` (..., B, 8) motor joint speeds rad/s, `vel` (..., B, 3) m/s; with dcmotors `motors`, their
-    electrical sample, and `temps` (..., B, 8) their windings after each step)."""
+    electrical sample, with `temp` (..., B, 8) their windings' temperatures)."""
     first, last = xp.asarray(cfg.first), xp.asarray(cfg.last)
     inside = (i[:, None] >= first[None, :]) & (i[:, None] <= last[None, :])  # (B, S)
     wt = xp.where(inside, 1.0, 0.0).T  # (S, B): sums over a span are products with it
@@ -140,7 +138,7 @@ def update(
         e = s["motors"]
         cur, power = e["current"], e["power"]
         out["i_sumsq"] = c["i_sumsq"] + total(cur * cur)
-        out["t_peak"] = peak(c["t_peak"], temps)
+        out["t_peak"] = peak(c["t_peak"], e["temp"])
         out["drawn"] = c["drawn"] + total(xp.maximum(power, 0.0)) * cfg.dt
         out["regen"] = c["regen"] + total(xp.maximum(-power, 0.0)) * cfg.dt
         out["bus_energy"] = c["bus_energy"] + total(power.sum(-1)[..., None])[..., 0] * cfg.dt

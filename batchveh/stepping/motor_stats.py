@@ -7,12 +7,10 @@ efficiency), per step:
 
 - the simulated current i' = F / K from the actuator's force F (the torque the motor gives: with
   MuJoCo's current limit, the limited current), the real current i = i' / eta;
-- the winding's temperature T = T_amb + the thermal state (MuJoCo's act), R'(T) = R' (1 + alpha
-  (T - T_ref)): the resistance the simulated motor sees. The temperature columns come from batchveh's
-  own integration of the same one-node model with the current the motor delivered (`windings`): MuJoCo
-  3.17's state heats with the current before its current limit clips it;
-- the terminal voltage v = i' R'(T) + K w (w: the motor's speed), and the electrical power v i,
-  drawn where positive, regenerated where negative;
+- the winding's temperature T and the terminal voltage v: the drive's (model/drive.py), the temperature
+  this step ran with (its resistance R'(T) = R' (1 + alpha (T - T_ref)) is the one the motor saw), heated by
+  the current the motor carried;
+- the electrical power v i, drawn where positive, regenerated where negative;
 - at the voltage line: |v| >= V (the controller's clamp, the bus voltage); at the current limit:
   |F| >= K eta i_max.
 
@@ -22,7 +20,14 @@ run (J), the share of the run's steps at the voltage line and at the current lim
 vehicle: the bus's peak power (W, the 8 motors' sum) and its net energy over the run (Wh), and
 `motor_limited`, true where a drive motor spent more than LIMITED_SHARE of the run at a limit; per drive,
 its speed shortfall against the imposed speed over the steady window; and `motor_status`: ok, limited, short
-(could not keep up) or stalled.
+(could not keep up), stalled or unstable.
+
+Physics checks, per variant and motor, on the torque each step applied (stats.sample's, with implicitfast's
+end-of-step damping): its peak against N K i'_max (the most the current limit allows at the joint); the
+share of steps whose torque changes sign with a jump of more than FLIP_JUMP of that bound (chatter); its
+RMS against the RMS of N K i', the torque the carried current gives. A variant past TORQUE_TOL, FLIP_SHARE
+or RMS_RATIO is `unstable`: its numbers are not the motor's, whatever its other flags (`motor_check`
+names which check).
 """
 
 from __future__ import annotations
@@ -32,13 +37,18 @@ from typing import Any
 
 import numpy as np
 
-from batchveh.model.motors import COPPER_TEMPCOEF, REFERENCE_TEMP
+from batchveh.model.motors import REFERENCE_TEMP
 from batchveh.model.vehicle import MOTORS
 
 LIMITED_SHARE = 0.01  # a drive motor at its voltage line or current limit for more than 1% of the run
 SHORT_SHARE = 0.02  # a drive's steady mean speed more than 2% below the imposed speed: the vehicle could not keep up
 STALL_SHARE = 0.9  # ... more than 90% below it: stalled
-MOTOR_STATUS = ("ok", "limited", "short", "stalled")  # motor_status_code -> motor_status (finalize's docstring)
+MOTOR_STATUS = ("ok", "limited", "short", "stalled", "unstable")  # motor_status_code -> motor_status
+TORQUE_TOL = 0.01  # a motor's applied torque more than 1% above N K i_max: unstable
+FLIP_JUMP = 0.5  # a step-to-step sign change counts as chatter when the torque jumps by half the bound or more
+FLIP_SHARE = 0.02  # ... on more than 2% of the run's steps: unstable
+RMS_RATIO = 1.2  # the applied torque's RMS more than 1.2x the RMS the carried current gives: unstable
+RMS_FLOOR = 0.01  # of the bound: the current's RMS counts at least this much (a motor at rest)
 AT_LIMIT_RTOL = 1e-6  # |v| >= V (1 - this), |F| >= F_max (1 - this)
 _PER_MOTOR = {
     "current_rms": ("A", "RMS motor current over the steady window"),
@@ -60,8 +70,13 @@ _VEHICLE = {
     "motor_status": (
         "",
         "ok; limited (a drive at a limit for more than 1% of the run, speeds within 2%); short (a drive's steady "
-        "speed more than 2% below the imposed); stalled (more than 90% below)",
+        "speed more than 2% below the imposed); stalled (more than 90% below); unstable (a physics check failed: "
+        "motor_check)",
     ),
+    "motor_torque_ratio": ("1", "largest peak |applied torque| of the 8 motors over N K i_max (at most 1)"),
+    "motor_flip_share": ("1", "largest share of steps whose torque flipped sign by half the bound or more"),
+    "motor_rms_ratio": ("1", "largest RMS of the applied torque over the RMS the carried current gives"),
+    "motor_check": ("", "the first physics check failed: '', 'torque above the current limit', 'chatter', 'rms'"),
 }
 
 
@@ -72,13 +87,13 @@ class MotorStatsConfig:
     K: tuple[float, ...]  # N m/A
     R: tuple[float, ...]  # Ohm, the simulated R' = R / eta at T_ref
     eta: tuple[float, ...]
-    V: tuple[float, ...]  # V, the controller's clamp
+    V: tuple[float, ...]  # V, the bus voltage
     force_max: tuple[float, ...]  # N m at the motor, 0: no current limit
     T_amb: tuple[float, ...]  # deg C
     thermal: tuple[bool, ...]
-    act: tuple[int, ...]
     R_T: tuple[float, ...] = (0.0,) * 8  # K/W, the winding's one-node thermal resistance (0: no thermal model)
-    C: tuple[float, ...] = (0.0,) * 8  # J/K, its capacitance  # each motor's thermal state in MjData.act (-1: none)
+    C: tuple[float, ...] = (0.0,) * 8  # J/K, its capacitance
+    N: tuple[float, ...] = (1.0,) * 8  # the gear ratio
 
     def constants(self) -> dict[str, np.ndarray]:
         """CONSTANTS, (8,) each."""
@@ -87,13 +102,12 @@ class MotorStatsConfig:
     @staticmethod
     def for_vehicle(vehicle: Any) -> MotorStatsConfig | None:
         """The constants of the vehicle's dcmotors as `motors.dcmotor_xml` builds them (None for the
-        servo): drives then steering, each motor's thermal state next in MjData.act where it has one."""
+        servo): drives then steering."""
         if vehicle.motors.model != "dcmotor":
             return None
         drive, steer = (x.resolved() for x in vehicle.motors.dcmotors())
         each = [drive] * 4 + [steer] * 4
         thermal = tuple(c["R_T"] > 0 for c in each)
-        act = tuple(int(np.cumsum(thermal)[j]) - 1 if t else -1 for j, t in enumerate(thermal))
         return MotorStatsConfig(
             K=tuple(c["K"] for c in each),
             R=tuple(c["R"] / c["eta"] for c in each),
@@ -102,13 +116,13 @@ class MotorStatsConfig:
             force_max=tuple(c["K"] * c["eta"] * c["i_max"] for c in each),
             T_amb=tuple(c["T_amb"] if c["R_T"] > 0 else REFERENCE_TEMP for c in each),
             thermal=thermal,
-            act=act,
             R_T=tuple(c["R_T"] for c in each),
-            C=tuple(c["C"] for c in each),
+            C=tuple(c["C"] if c["R_T"] > 0 else 0.0 for c in each),
+            N=tuple(c["N"] for c in each),
         )
 
 
-CONSTANTS = ("K", "R", "eta", "V", "force_max", "T_amb", "R_T", "C")  # per motor, MotorStatsConfig's numbers
+CONSTANTS = ("K", "R", "eta", "V", "force_max", "T_amb", "R_T", "C", "N")  # per motor, MotorStatsConfig's numbers
 
 
 def constants_of(cfg: MotorStatsConfig, params: Any = None, xp=np, dtype=None) -> dict[str, Any]:
@@ -121,50 +135,23 @@ def constants_of(cfg: MotorStatsConfig, params: Any = None, xp=np, dtype=None) -
     return out
 
 
-def start_act(params: Any, index: np.ndarray, na: int, xp=np, dtype=None) -> Any:
-    """MjData.act at t = 0 (..., na): each thermal state at its motor's start rise (params
-    `motors.drive_start_rise`, `motors.steer_start_rise`, per variant), the rest 0."""
-    drive = xp.asarray(params["motors.drive_start_rise"], dtype)
-    steer = xp.asarray(params["motors.steer_start_rise"], dtype)
-    act = xp.zeros((*xp.shape(drive), na), dtype=dtype or drive.dtype)
-    for j, k in enumerate(index):
-        if k >= 0:
-            value = drive if j < 4 else steer
-            act = act.at[..., int(k)].set(value) if xp is not np else _set(act, int(k), value)
-    return act
-
-
-def _set(act: np.ndarray, k: int, value: Any) -> np.ndarray:
-    act[..., k] = value
-    return act
-
-
-def sample(force, velocity, act, cfg: MotorStatsConfig, xp=np, consts=None) -> dict[str, Any]:
-    """Per step (..., B, 8): the real current, the winding temperature, the voltage, the power and the
-    limit flags, from the motors' actuator force and velocity (..., B, 8) and MjData.act (..., B, na;
-    None where no motor has a thermal state). consts: `constants_of`'s (each variant's numbers, (..., 8),
+def sample(force, velocity, temp, volt, cfg: MotorStatsConfig, xp=np, consts=None) -> dict[str, Any]:
+    """Per step (..., B, 8): the real current, the winding temperature, the power and the limit flags, from
+    the motors' actuator force and velocity and the drive's record (its winding temperature and terminal
+    voltage, model/drive.py), each (..., B, 8). consts: `constants_of`'s (each variant's numbers, (..., 8),
     broadcast over B); default the config's."""
     c = constants_of(cfg, xp=xp, dtype=force.dtype) if consts is None else consts
     c = {k: xp.asarray(v, force.dtype)[..., None, :] for k, v in c.items()}  # over the steps' axis
-    K, R, eta, V = (c[k] for k in ("K", "R", "eta", "V"))
-    fmax, t_amb = c["force_max"], c["T_amb"]
-    if any(cfg.thermal) and act is not None:
-        idx = np.maximum(np.asarray(cfg.act), 0)
-        rise = xp.where(xp.asarray(cfg.thermal), act[..., idx], 0.0)
-    else:
-        rise = xp.zeros_like(force)
-    temp = t_amb + rise
-    i_sim = force / K
-    r_t = R * (1 + COPPER_TEMPCOEF * (temp - REFERENCE_TEMP))
-    volt = i_sim * r_t + K * velocity
-    current = i_sim / eta
+    K, eta, V, fmax = c["K"], c["eta"], c["V"], c["force_max"]
+    current = force / K / eta
     return {
         "current": current,
         "temp": temp,
         "power": volt * current,
         "at_v": xp.abs(volt) >= V * (1 - AT_LIMIT_RTOL),
         "at_i": (fmax > 0) & (xp.abs(force) >= fmax * (1 - AT_LIMIT_RTOL)),
-        "consts": c,  # the motors' numbers, (..., 1, 8): update integrates the windings with them
+        "joint": force * c["N"],  # the torque the current gives at the joint
+        "bound": xp.where(fmax > 0, fmax * c["N"], xp.inf),  # the most the current limit allows there
     }
 
 
@@ -187,52 +174,26 @@ def init(batch: tuple[int, ...], xp=np, dtype=None) -> dict[str, Any]:
         "n_i": z(8),
         "bus_peak": z(),
         "bus_energy": z(),
+        "tau_peak": z(8),  # the physics checks: peak |applied torque| over the bound
+        "tau_prev": z(8, fill=np.nan),  # the last step's applied torque (NaN: none yet)
+        "n_flip": z(8),
+        "tau_sumsq": z(8),
+        "joint_sumsq": z(8),
+        "bound_sumsq": z(8),
     }
 
 
-def windings(temp, current, cfg: MotorStatsConfig, dt: float, xp=np, consts=None):
-    """The windings' temperatures (..., B, 8) after each step of `dt` of a block, from `temp` (..., 8) with
-    the motors' real currents (..., B, 8): C dT/dt = i^2 R (1 + alpha (T - 25)) - (T - T_amb) / R_T, explicit
-    Euler (dt / tau < 3e-4 for the catalogue's windings at 5 ms). MuJoCo 3.17's own thermal state heats with
-    the current before the current limit clips it (model/motors.py); this one heats with the current the
-    motor delivered. Each step is linear in T, T' = a T + b, so T after step k is A_k (T_0 + sum_{j<=k}
-    b_j / A_j) with A_k = a_0 ... a_k (a close to 1 - dt / tau: the products stay near 1 over a block)."""
-    c = constants_of(cfg, xp=xp, dtype=current.dtype) if consts is None else consts
-    thermal = xp.asarray(cfg.thermal)
-    r_t = xp.where(thermal, xp.asarray(c["R_T"], current.dtype), 1.0)[..., None, :]
-    cap = xp.where(thermal, xp.asarray(c["C"], current.dtype), 1.0)[..., None, :]
-    r0 = (xp.asarray(c["R"], current.dtype) * xp.asarray(c["eta"], current.dtype))[..., None, :]
-    t_amb = xp.asarray(c["T_amb"], current.dtype)
-    heat = current * current * r0  # W at 25 deg C
-    a = 1 + dt * (heat * COPPER_TEMPCOEF - 1 / r_t) / cap
-    b = dt * (heat * (1 - COPPER_TEMPCOEF * REFERENCE_TEMP) + t_amb[..., None, :] / r_t) / cap
-    prod = xp.cumprod(a, axis=-2)
-    temps = prod * (temp[..., None, :] + xp.cumsum(b / prod, axis=-2))
-    return xp.where(thermal[..., None, :], temps, t_amb[..., None, :])
-
-
-def block_windings(c: dict[str, Any], e: dict[str, Any], cfg: MotorStatsConfig, dt: float, xp=np):
-    """The windings' temperatures after each step of a block (..., B, 8) (`windings`), from the carry's, or at
-    the first block from MuJoCo's thermal state after the first step (its start rise, `start_act`)."""
-    consts = {k: v[..., 0, :] for k, v in e["consts"].items()}
-    start = xp.where(xp.isnan(c["T"]), e["temp"][..., 0, :], c["T"])
-    return windings(start, e["current"], cfg, dt, xp, consts)
-
-
-def update(
-    c: dict[str, Any], e: dict[str, Any], w, wr, dt: float, cfg: MotorStatsConfig, xp=np, temps=None
-) -> dict[str, Any]:
-    """Fold a block's samples `e` (..., B, 8); w, wr (B,): 1.0 at steps inside the steady window, past
-    the settle. temps: `block_windings` (computed here when not given)."""
+def update(c: dict[str, Any], e: dict[str, Any], tau, w, wr, dt: float, xp=np) -> dict[str, Any]:
+    """Fold a block's samples `e` (..., B, 8) and the torques the steps applied `tau` (..., B, 8); w, wr (B,):
+    1.0 at steps inside the steady window, past the settle."""
     wk, wrk = w[:, None], wr[:, None]
-    cur, power = e["current"], e["power"]
+    cur, power, temps = e["current"], e["power"], e["temp"]
     run = wr > 0
     bus = power.sum(-1)
     out = dict(c)
     out["n_run"] = c["n_run"] + wr.sum()
     out["i_sumsq"] = c["i_sumsq"] + (wk * cur * cur).sum(-2)
     out["i_peak"] = xp.maximum(c["i_peak"], xp.where(run[:, None], xp.abs(cur), 0.0).max(-2))
-    temps = block_windings(c, e, cfg, dt, xp) if temps is None else temps
     out["T"] = temps[..., -1, :]
     out["t_peak"] = xp.maximum(c["t_peak"], xp.where(run[:, None], temps, -np.inf).max(-2))
     out["t_end"] = out["T"]
@@ -242,6 +203,20 @@ def update(
     out["n_i"] = c["n_i"] + (wrk * e["at_i"]).sum(-2)
     out["bus_peak"] = xp.maximum(c["bus_peak"], xp.where(run, bus, 0.0).max(-1))
     out["bus_energy"] = c["bus_energy"] + (wr * bus).sum(-1) * dt
+    # the physics checks, over the run after the settle
+    bound = e["bound"][..., 0, :]
+    finite = xp.isfinite(bound)
+    scale = xp.where(finite, bound, 1.0)
+    ratio = xp.where(finite[..., None, :], xp.abs(tau) / scale[..., None, :], 0.0)
+    out["tau_peak"] = xp.maximum(c["tau_peak"], xp.where(run[:, None], ratio, 0.0).max(-2))
+    prev = xp.concatenate([c["tau_prev"][..., None, :], tau[..., :-1, :]], axis=-2)
+    jump = xp.abs(tau - prev)
+    flip = (tau * prev < 0) & finite[..., None, :] & (jump >= FLIP_JUMP * scale[..., None, :])
+    out["n_flip"] = c["n_flip"] + (wrk * flip).sum(-2)
+    out["tau_prev"] = tau[..., -1, :]
+    out["tau_sumsq"] = c["tau_sumsq"] + (wrk * tau * tau).sum(-2)
+    out["joint_sumsq"] = c["joint_sumsq"] + (wrk * e["joint"] * e["joint"]).sum(-2)
+    out["bound_sumsq"] = c["bound_sumsq"] + wr.sum() * xp.where(finite, scale * scale, 0.0)
     return out
 
 
@@ -271,10 +246,32 @@ def finalize(c: dict[str, Any], n_window, speed_err, speed_ref, xp=np) -> dict[s
     for j, m in enumerate(MOTORS[:4]):
         cols[f"{m}_speed_shortfall"] = shortfall[..., j]
     worst = xp.max(shortfall, axis=-1)
-    cols["motor_status_code"] = xp.where(
-        worst > STALL_SHARE, 3, xp.where(worst > SHORT_SHARE, 2, xp.where(cols["motor_limited"], 1, 0))
+    status = xp.where(worst > STALL_SHARE, 3, xp.where(worst > SHORT_SHARE, 2, xp.where(cols["motor_limited"], 1, 0)))
+    floor = RMS_FLOOR * RMS_FLOOR * c["bound_sumsq"]
+    rms_ratio = xp.sqrt(c["tau_sumsq"] / xp.maximum(xp.maximum(c["joint_sumsq"], floor), 1e-30))
+    cols["motor_torque_ratio"] = xp.max(c["tau_peak"], axis=-1)
+    cols["motor_flip_share"] = xp.max(c["n_flip"] / n_run, axis=-1)
+    cols["motor_rms_ratio"] = xp.max(xp.where(c["bound_sumsq"] > 0, rms_ratio, 0.0), axis=-1)
+    cols["motor_check_code"] = xp.where(
+        cols["motor_torque_ratio"] > 1 + TORQUE_TOL,
+        1,
+        xp.where(cols["motor_flip_share"] > FLIP_SHARE, 2, xp.where(cols["motor_rms_ratio"] > RMS_RATIO, 3, 0)),
     )
+    cols["motor_status_code"] = xp.where(cols["motor_check_code"] > 0, 4, status)
     return cols
+
+
+MOTOR_CHECK = ("", "torque above the current limit", "chatter", "rms")  # motor_check_code -> motor_check
+CODES = {"motor_status_code": ("motor_status", MOTOR_STATUS), "motor_check_code": ("motor_check", MOTOR_CHECK)}
+
+
+def named(cols: dict[str, Any]) -> dict[str, Any]:
+    """The columns with each code (`motor_status_code`, `motor_check_code`) turned into its names."""
+    out = {k: v for k, v in cols.items() if k not in CODES}
+    for code, (name, names) in CODES.items():
+        if code in cols:
+            out[name] = np.asarray(names, dtype=object)[np.asarray(cols[code], int)]
+    return out
 
 
 def column_doc(name: str) -> tuple[str, str] | None:

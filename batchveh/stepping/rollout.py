@@ -20,10 +20,9 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 
-from batchveh.model import wheels
-from batchveh.model.indexing import place, take
+from batchveh.model import drive, wheels
+from batchveh.model.indexing import take
 from batchveh.model.missions import body_forces_fn
-from batchveh.model.motors import dc_controls, dc_schedule
 from batchveh.model.scenarios import Scenario, control_schedule, controls_fn
 from batchveh.model.vehicle import Layout, layout
 from batchveh.stepping import motor_stats, stats
@@ -52,9 +51,9 @@ def host_cpu() -> jax.Device:
 
 
 def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: Layout, body_out, motors=None):
-    """The scan's body over ((data, tyre state, drive angle setpoints), reductions). `body_out(d, acc,
-    sample, i)` returns ((d, acc), output) as a scan body would. With dcmotors, the scenario's servo
-    controls become each motor's setpoints (`motors.dc_controls`), the drive angles carried."""
+    """The scan's body over ((data, tyre state, drive state), reductions). `body_out(d, acc, sample, i)`
+    returns ((d, acc), output) as a scan body would. With dcmotors, the drive (model/drive.py) turns the
+    scenario's servo controls into each motor's voltage, step by step."""
     ctrl_fn = controls_fn(scenario)
     forces_fn = body_forces_fn(scenario)  # a mission's slope in time; None otherwise
     dt = model.opt.timestep
@@ -62,15 +61,16 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
 
     damping = servo_damping(params, scenario.towing, xp=jnp, dcmotor=lay.dcmotor)
 
-    ratios = jnp.asarray(model.actuator_gear[lay.motor_act, 0]) if lay.dcmotor else None
+    dc = drive.constants(params, jnp, dt.dtype) if lay.dcmotor else None
     consts = motor_stats.constants_of(motors, params, jnp) if motors is not None else None
 
     def body(carry, i):
-        (d, ts, theta), acc = carry
-        ctrl = ctrl_fn(params, i * dt).astype(d.ctrl.dtype)
-        sim_ctrl = ctrl
-        if ratios is not None:
-            sim_ctrl, theta = dc_controls(ctrl, theta, ratios.astype(ctrl.dtype), dt.astype(ctrl.dtype), jnp)
+        (d, ts, ds), acc = carry
+        ctrl = ctrl_fn(params, i * dt).astype(d.qvel.dtype)
+        sim_ctrl, record = ctrl, None
+        if dc is not None:
+            q_steer, qvel = take(d.qpos, lay.motor_qpos[4:]), take(d.qvel, lay.motor_dof)
+            sim_ctrl, ds, record = drive.step(ds, ctrl, q_steer, qvel, dc, dt, jnp)
         xfrc = None
         if forces_fn is not None:
             xfrc = forces_fn(params, model.body_mass, i * dt).astype(d.xfrc_applied.dtype)
@@ -80,33 +80,19 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
         if xfrc is not None:
             d = d.replace(xfrc_applied=xfrc)
         qvel_prev = d.qvel
-        d = mjx.step(model, d.replace(ctrl=sim_ctrl))
-        if ratios is not None:
-            d, theta = wrap_drive_angles(d, theta, lay)
+        d = mjx.step(model, d.replace(ctrl=sim_ctrl.astype(d.ctrl.dtype)))
         dv = take(d.qvel - qvel_prev, lay.motor_dof)
         electric = None
         if motors is not None:  # the dcmotors' electrical sample (motor_stats), a block of one step
             force, speed = take(d.actuator_force, lay.motor_act), take(d.actuator_velocity, lay.motor_act)
-            act = d.act[None] if d.act.shape[-1] else None
-            electric = motor_stats.sample(force[None], speed[None], act, motors, jnp, consts)
+            electric = motor_stats.sample(force[None], speed[None], record["T"][None], record["v"][None], motors,
+                                          jnp, consts)  # fmt: skip
             electric = jax.tree_util.tree_map(lambda v: v[0], electric)
         s = stats.sample(d.qpos, d.qvel, d.qfrc_actuator, ctrl, params["wheel.radius"], lay, damping, dv, electric)
         (d, acc), out = body_out(d, acc, s, i)
-        return ((d, ts, theta), acc), out
+        return ((d, ts, ds), acc), out
 
     return body
-
-
-def wrap_drive_angles(d: mjx.Data, theta, lay: Layout):
-    """The drive joints' angles and their setpoints `theta`, less the same whole turns: back within half a turn
-    of zero. In float32 a wheel's angle grows by some 0.05 rad a step to about 100 rad in 10 s, and each step's
-    sum rounds to its ulp (7.6e-6 rad there): the angle drifts by about 1e-4 rad from float64's, which the
-    dcmotor's angle gain (200 N m/rad) turns into a front/rear torque split of 0.03 N m. Both lose the same
-    float32 value (within a factor of 2 of each, so the subtractions are exact), so the angle error, the
-    controller's input, is unchanged; a wheel's shape is the same a turn on. No statistic reads a drive angle."""
-    q = take(d.qpos, lay.motor_qpos[:4])
-    shift = (jnp.round(q / (2 * jnp.pi)) * (2 * jnp.pi)).astype(q.dtype)
-    return d.replace(qpos=d.qpos - place(shift, lay.motor_qpos[:4], d.qpos.shape[-1], axis=-1)), theta - shift
 
 
 def tyre_step(d: mjx.Data, ts, tp, lay: Layout, dt):
@@ -118,12 +104,17 @@ def tyre_step(d: mjx.Data, ts, tp, lay: Layout, dt):
     return ts, xfrc.astype(d.xfrc_applied.dtype)
 
 
-def _init(model: mjx.Model, d0: mjx.Data):
-    """The scan's first (data, wheel-ground state, drive angle setpoints). The data is forwarded, as
-    MuJoCo C's is before its first step: a wheel-ground model reads the last forward pass's positions
-    and contact forces, and those of unforwarded data are zeros (the soil saw each wheel sunk to its
-    axle). The drive angle setpoints start at 0, as the servo's integrator actuators do."""
-    return mjx.forward(model, d0), wheels.init_state((), jnp, d0.qvel.dtype), jnp.zeros(4, d0.qvel.dtype)
+def _init(model: mjx.Model, d0: mjx.Data, params: Mapping[str, Any], lay: Layout):
+    """The scan's first (data, wheel-ground state, drive state). The data is forwarded, as MuJoCo C's is
+    before its first step: a wheel-ground model reads the last forward pass's positions and contact forces,
+    and those of unforwarded data are zeros (the soil saw each wheel sunk to its axle). The drive's state
+    (dcmotors): its loops' integrals at 0, each winding at its start rise."""
+    dtype = d0.qvel.dtype
+    ds = ()
+    if lay.dcmotor:
+        rise = (params["motors.drive_start_rise"], params["motors.steer_start_rise"])
+        ds = drive.init(drive.constants(params, jnp, dtype), rise, jnp, dtype)
+    return mjx.forward(model, d0), wheels.init_state((), jnp, dtype), ds
 
 
 def reports_solver_iterations(model: mjx.Model) -> bool:
@@ -166,8 +157,8 @@ def mjx_stats(
         return (d, (stats.update(acc, block, i[None], cfg, xp=jnp), at_limit)), None
 
     body = _scan(model, params, scenario, lay, out, cfg.motors)
-    d0 = _start(model, params, lay, data)
-    init = (_init(model, d0), (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
+    d0 = _start(model, data)
+    init = (_init(model, d0, params, lay), (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
     (_, (acc, at_limit)), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps), unroll=unroll)
     cols = stats.finalize(acc, cfg, xp=jnp)
     if health:
@@ -175,13 +166,9 @@ def mjx_stats(
     return cols
 
 
-def _start(model: mjx.Model, params: Mapping[str, Any], lay: Layout, data: mjx.Data | None) -> mjx.Data:
-    """The initial data: the variant's own qpos0, and with dcmotors each winding at its start rise."""
-    d0 = mjx.make_data(model) if data is None else data.replace(qpos=model.qpos0.astype(data.qpos.dtype))
-    if lay.dcmotor and d0.act.shape[-1]:
-        act = motor_stats.start_act(params, lay.motor_thermal_act, d0.act.shape[-1], jnp, d0.act.dtype)
-        d0 = d0.replace(act=act)
-    return d0
+def _start(model: mjx.Model, data: mjx.Data | None) -> mjx.Data:
+    """The initial data, at the variant's own qpos0."""
+    return mjx.make_data(model) if data is None else data.replace(qpos=model.qpos0.astype(data.qpos.dtype))
 
 
 def mjx_series(
@@ -199,18 +186,19 @@ def mjx_series(
         return (d, acc), s
 
     body = _scan(model, params, scenario, lay, out)
-    d0 = _start(model, params, lay, data)
-    _, series = jax.lax.scan(body, (_init(model, d0), ()), jnp.arange(n_steps))
+    d0 = _start(model, data)
+    _, series = jax.lax.scan(body, (_init(model, d0, params, lay), ()), jnp.arange(n_steps))
     return series
 
 
 def mujoco_steps(
-    m: mujoco.MjModel, params: Mapping[str, Any], *, scenario: Scenario, n_steps: int
+    m: mujoco.MjModel, params: Mapping[str, Any], *, scenario: Scenario, n_steps: int, record: dict | None = None
 ) -> Iterator[tuple[mujoco.MjData, np.ndarray]]:
     """Step MuJoCo C (float64) through the scenario; yield (data, controls) after each step.
 
     Before the first step the data is forwarded (for a first frame, say) and yielded with
-    controls None. The same data object is yielded every time."""
+    controls None. The same data object is yielded every time. With dcmotors, `record` (a dict, if
+    given) holds the drive's record of the step just taken (drive.step: T, v, held) and its state."""
     d = mujoco.MjData(m)
     times = np.arange(n_steps) * m.opt.timestep
     forces_fn = body_forces_fn(scenario)
@@ -221,21 +209,40 @@ def mujoco_steps(
             forces = np.asarray(jax.jit(jax.vmap(forces_fn, in_axes=(None, None, 0)))(p, m.body_mass, times))
     lay = layout(m)
     tyre = MujocoTyre(m, lay, p) if lay.applied else None
-    sim_ctrls = ctrls
-    if lay.dcmotor:  # the motors' setpoints: the drive angles integrated step by step, as an integrator's act
-        sim_ctrls, _ = dc_schedule(ctrls, np.zeros(4), m.actuator_gear[lay.motor_act, 0], m.opt.timestep)
-    if lay.dcmotor and m.na:  # each winding at its start rise
-        d.act[:] = motor_stats.start_act(p, lay.motor_thermal_act, m.na)
+    motor_drive = MujocoDrive(lay, p, m.opt.timestep) if lay.dcmotor else None
     mujoco.mj_forward(m, d)
     yield d, None
     for i in range(n_steps):
-        d.ctrl[:] = sim_ctrls[i]
+        if motor_drive is not None:
+            d.ctrl[:] = motor_drive.voltages(ctrls[i], d.qpos, d.qvel)
+            if record is not None:
+                record.update(motor_drive.record, state=motor_drive.state)
+        else:
+            d.ctrl[:] = ctrls[i]
         xfrc = forces[i] if forces_fn is not None else np.zeros_like(d.xfrc_applied)
         if tyre is not None:
             xfrc = xfrc + tyre.wrench(d.xpos, d.xmat.reshape(-1, 3, 3), d.qvel, d.cfrc_ext, d.xfrc_applied)
         d.xfrc_applied[:] = xfrc
         mujoco.mj_step(m, d)
         yield d, ctrls[i]
+
+
+class MujocoDrive:
+    """The dcmotors' drive (model/drive.py) between MuJoCo C steps, in float64 numpy, for one simulation or a
+    batch (leading axes of `params`' values). `voltages` steps it; `record` is the last step's record."""
+
+    def __init__(self, lay: Layout, params: Mapping[str, Any], dt: float):
+        self.lay, self.dt = lay, float(dt)
+        self.c = drive.constants(params, np, np.float64)
+        rise = (params["motors.drive_start_rise"], params["motors.steer_start_rise"])
+        self.state = drive.init(self.c, tuple(np.asarray(r, np.float64) for r in rise), np, np.float64)
+        self.record: dict[str, np.ndarray] = {}
+
+    def voltages(self, servo_ctrl, qpos, qvel) -> np.ndarray:
+        """The motors' voltages (..., 8) for the scenario's controls (..., 16) and the state now."""
+        q_steer, rate = qpos[..., self.lay.motor_qpos[4:]], qvel[..., self.lay.motor_dof]
+        u, self.state, self.record = drive.step(self.state, servo_ctrl, q_steer, rate, self.c, self.dt, np)
+        return u.reshape(*np.shape(rate)[:-1], 8)
 
 
 class MujocoTyre:

@@ -144,12 +144,15 @@ def sample(
     motor joint's speed change over the step, rad/s) the applied torque is qfrc_actuator -
     kv dv: 3.6 N m less per wheel at 5 ms on a 1 s ramp to 1 km/h (validation/PEAKS.md).
     Without them, qfrc_actuator as it is. `motors`: the dcmotors' sample (`motor_stats.sample`), kept
-    as it is for the electrical statistics.
+    as it is for the electrical statistics; there `damping` is the back-EMF's (model/drive.py), which MuJoCo
+    leaves out of a step where its saturation clipped the motor (`at_i`).
     """
     rate = take(qvel, lay.motor_dof)  # the 8 motor joints' speeds, drives first
     omega = rate[..., :4]
     tau = take(qfrc_actuator, lay.motor_dof)
     if damping is not None:
+        if motors is not None:
+            damping = damping * (1.0 - motors["at_i"])
         tau = tau - damping * motor_dv
     extra = {} if motors is None else {"motors": motors}
     return {
@@ -358,12 +361,10 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
     if span != "none":
         out["steer_err"] = _wmax(c["steer_err"], inw, xp.abs(s["alpha"] - s["ref"][..., 4:]), span, xp)
     out["pose"] = xp.stack([s["pos"][..., -1, 0], s["pos"][..., -1, 1], yaw[..., -1]], axis=-1)
-    temps = None  # the dcmotors' windings after each step (motor_stats.block_windings)
     if cfg.motors is not None:
-        temps = motor_stats.block_windings(c["motors"], s["motors"], cfg.motors, cfg.dt, xp)
-        out["motors"] = motor_stats.update(c["motors"], s["motors"], w, wr, cfg.dt, cfg.motors, xp, temps)
+        out["motors"] = motor_stats.update(c["motors"], s["motors"], s["tau"], w, wr, cfg.dt, xp)
     if cfg.mission is not None:
-        out["mission"] = mission_stats.update(c["mission"], tau, abs_lp, s, i, cfg.mission, xp, temps)
+        out["mission"] = mission_stats.update(c["mission"], tau, abs_lp, s, i, cfg.mission, xp)
     return out
 
 

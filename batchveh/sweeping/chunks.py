@@ -132,10 +132,8 @@ class ChunkRunner:
         c, rows, batch, prepare_s = prepared
         t0 = time.perf_counter()
         res = course.flag(self.engine.run(batch), batch.params, self.spec.scenario.obstacle)
-        cols = {k: np.asarray(v) for k, v in res.items() if k not in ("status_code", "motor_status_code")}
+        cols = {k: np.asarray(v) for k, v in motor_stats.named(res).items() if k != "status_code"}
         cols["status"] = [stats.STATUS[int(s)] for s in np.asarray(res["status_code"])]
-        if "motor_status_code" in res:  # model dcmotor
-            cols["motor_status"] = np.asarray(motor_stats.MOTOR_STATUS)[np.asarray(res["motor_status_code"], int)]
         frame = pd.concat([rows.reset_index(drop=True), pd.DataFrame(cols)], axis=1)
         for k, names in self.choices.items():  # a categorical parameter's column holds its names
             frame[k] = np.asarray(names, dtype=object)[np.rint(frame[k].to_numpy()).astype(int)]
