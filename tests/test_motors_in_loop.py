@@ -206,6 +206,11 @@ def test_a_mission_reports_the_motors_per_segment(tmp_path):
         np.testing.assert_allclose(peak, out[f"mission_{m}_winding_temp_peak"], rtol=1e-12)
         np.testing.assert_allclose(out[f"mission_{m}_winding_temp_peak"], out[f"{m}_winding_temp_peak"], rtol=1e-12)
     np.testing.assert_allclose(sum(out[f"{s}_bus_energy_wh"] for s in segs), out["mission_bus_energy_wh"], rtol=1e-9)
-    for s in segs:  # every segment moves or holds the vehicle: the drives draw, and take back less than they draw
-        assert (out[f"{s}_drive_lf_energy_drawn"] > 0).all()
-        assert (out[f"{s}_drive_lf_energy_regen"] < out[f"{s}_drive_lf_energy_drawn"]).all()
+    # without payload every segment moves or holds the vehicle: the drives draw, and take back less than they
+    # draw. With 30 kg the small motor stalls on the climb (0.123 x 40 x 0.95 = 4.7 N m a wheel against 7.7) and,
+    # held at its current limit, is driven backwards down the slope when the stop comes: it regenerates there
+    assert [MOTOR_STATUS[int(k)] for k in out["motor_status_code"]][1] == "stalled"
+    for s in segs:
+        assert out[f"{s}_drive_lf_energy_drawn"][0] > 0
+        assert out[f"{s}_drive_lf_energy_regen"][0] < out[f"{s}_drive_lf_energy_drawn"][0]
+    assert out["seg3_stop_drive_lf_energy_regen"][1] > out["seg3_stop_drive_lf_energy_drawn"][1]

@@ -241,7 +241,7 @@ def drive_gains(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], params,
         },
     )
     free = np.array([0.0 if tow else 1.0 for tow in scenario.towing] + [1.0] * 4)
-    return {f"_dc.{k}": v * free for k, v in g.items()}
+    return {f"_dc.{k}": np.broadcast_to(v * free, (n, 8)).copy() for k, v in g.items()}
 
 
 def drive_armature(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], n: int) -> np.ndarray:
