@@ -53,133 +53,156 @@ RIG = """
 </mujoco>
 """
 
-MOTOR = ('<dcmotor name="m" joint="hinge" resistance="{R}" motorconst="{K}" saturation="0 {I} 0" '
-         'thermal="{RT} {C} 0 {a} {T0} {Ta}" input="voltage"/>').format(
-             R=R0, K=KM, I=IMAX, RT=RT, C=CT, a=ALPHA, T0=T0, Ta=TA)
-PIDMOTOR = ('<dcmotor name="m" joint="hinge" resistance="{R}" motorconst="{K}" '
-            'input="pos vel" controller="1 0 2 0 0 24"/>').format(R=R0, K=KM)
+MOTOR = (
+    f'<dcmotor name="m" joint="hinge" resistance="{R0}" motorconst="{KM}" saturation="0 {IMAX} 0" '
+    f'thermal="{RT} {CT} 0 {ALPHA} {T0} {TA}" input="voltage"/>'
+)
+PIDMOTOR = (
+    f'<dcmotor name="m" joint="hinge" resistance="{R0}" motorconst="{KM}" input="pos vel" controller="1 0 2 0 0 24"/>'
+)
 
 
 def r_of(T):
-  return R0 * (1 + ALPHA * (T + TA - T0))
+    return R0 * (1 + ALPHA * (T + TA - T0))
 
 
 def one_node(clipped, nstep):
-  """Explicit Euler of C dT/dt = i^2 R(T) - T/RT at omega = 0; returns T after each step."""
-  T = 0.0
-  out = np.empty(nstep)
-  for k in range(nstep):
-    R = r_of(T)
-    i = VOLT / R
-    if clipped:
-      i = np.clip(i, -IMAX, IMAX)
-    T = T + DT * (i * i * R - T / RT) / CT
-    out[k] = T
-  return out
+    """Explicit Euler of C dT/dt = i^2 R(T) - T/RT at omega = 0; returns T after each step."""
+    T = 0.0
+    out = np.empty(nstep)
+    for k in range(nstep):
+        R = r_of(T)
+        i = VOLT / R
+        if clipped:
+            i = np.clip(i, -IMAX, IMAX)
+        T = T + DT * (i * i * R - T / RT) / CT
+        out[k] = T
+    return out
 
 
 def simulate():
-  m = mujoco.MjModel.from_xml_string(RIG.format(dt=DT, arm=ARMATURE, act=MOTOR))
-  d = mujoco.MjData(m)
-  assert m.na == 1, f"expected one act state (temperature), got na={m.na}"
-  layout = {
-      "gainprm[:4] (R, K, alpha, T0)": m.actuator_gainprm[0, :4].tolist(),
-      "dynprm[:5] (te, dimax, RT, C, Ta)": m.actuator_dynprm[0, :5].tolist(),
-      "forcerange": m.actuator_forcerange[0].tolist(),
-  }
-  assert np.allclose(m.actuator_dynprm[0, 2:5], [RT, CT, TA]), layout
-  assert np.allclose(m.actuator_gainprm[0, :4], [R0, KM, ALPHA, T0]), layout
-  nstep = int(round(T_END / DT))
-  rec = {k: np.empty(nstep) for k in ("t", "T", "force", "i_unclipped", "i_clipped", "omega",
-                                      "actdot", "actdot_a", "actdot_b")}
-  d.ctrl[0] = VOLT
-  for k in range(nstep):
-    # quantities at the start of the step (what act_dot is computed from)
-    mujoco.mj_forward(m, d)
-    T = d.act[0]
-    w = d.actuator_velocity[0]
-    R = r_of(T)
-    iu = (VOLT - KM * w) / R
-    ic = d.actuator_force[0] / KM
-    rec["i_unclipped"][k] = iu
-    rec["i_clipped"][k] = ic
-    rec["force"][k] = d.actuator_force[0]
-    rec["omega"][k] = w
-    rec["actdot"][k] = d.act_dot[0]
-    rec["actdot_a"][k] = (iu * iu * R - T / RT) / CT
-    rec["actdot_b"][k] = (ic * ic * R - T / RT) / CT
-    mujoco.mj_step(m, d)
-    rec["t"][k] = d.time
-    rec["T"][k] = d.act[0]
-  return m, rec, layout
+    m = mujoco.MjModel.from_xml_string(RIG.format(dt=DT, arm=ARMATURE, act=MOTOR))
+    d = mujoco.MjData(m)
+    assert m.na == 1, f"expected one act state (temperature), got na={m.na}"
+    layout = {
+        "gainprm[:4] (R, K, alpha, T0)": m.actuator_gainprm[0, :4].tolist(),
+        "dynprm[:5] (te, dimax, RT, C, Ta)": m.actuator_dynprm[0, :5].tolist(),
+        "forcerange": m.actuator_forcerange[0].tolist(),
+    }
+    assert np.allclose(m.actuator_dynprm[0, 2:5], [RT, CT, TA]), layout
+    assert np.allclose(m.actuator_gainprm[0, :4], [R0, KM, ALPHA, T0]), layout
+    nstep = int(round(T_END / DT))
+    rec = {
+        k: np.empty(nstep)
+        for k in ("t", "T", "force", "i_unclipped", "i_clipped", "omega", "actdot", "actdot_a", "actdot_b")
+    }
+    d.ctrl[0] = VOLT
+    for k in range(nstep):
+        # quantities at the start of the step (what act_dot is computed from)
+        mujoco.mj_forward(m, d)
+        T = d.act[0]
+        w = d.actuator_velocity[0]
+        R = r_of(T)
+        iu = (VOLT - KM * w) / R
+        ic = d.actuator_force[0] / KM
+        rec["i_unclipped"][k] = iu
+        rec["i_clipped"][k] = ic
+        rec["force"][k] = d.actuator_force[0]
+        rec["omega"][k] = w
+        rec["actdot"][k] = d.act_dot[0]
+        rec["actdot_a"][k] = (iu * iu * R - T / RT) / CT
+        rec["actdot_b"][k] = (ic * ic * R - T / RT) / CT
+        mujoco.mj_step(m, d)
+        rec["t"][k] = d.time
+        rec["T"][k] = d.act[0]
+    return m, rec, layout
 
 
 def pid_layout():
-  m = mujoco.MjModel.from_xml_string(RIG.format(dt=DT, arm=0, act=PIDMOTOR))
-  return {"xml": PIDMOTOR, "nu": int(m.nu), "na": int(m.na),
-          "gainprm": m.actuator_gainprm[0].tolist(),
-          "biasprm": m.actuator_biasprm[0].tolist(),
-          "dynprm": m.actuator_dynprm[0].tolist()}
+    m = mujoco.MjModel.from_xml_string(RIG.format(dt=DT, arm=0, act=PIDMOTOR))
+    return {
+        "xml": PIDMOTOR,
+        "nu": int(m.nu),
+        "na": int(m.na),
+        "gainprm": m.actuator_gainprm[0].tolist(),
+        "biasprm": m.actuator_biasprm[0].tolist(),
+        "dynprm": m.actuator_dynprm[0].tolist(),
+    }
 
 
 def main():
-  np.set_printoptions(precision=5, suppress=True, linewidth=160)
-  m, rec, layout = simulate()
-  nstep = len(rec["t"])
-  pa = one_node(False, nstep)
-  pb = one_node(True, nstep)
+    np.set_printoptions(precision=5, suppress=True, linewidth=160)
+    m, rec, layout = simulate()
+    nstep = len(rec["t"])
+    pa = one_node(False, nstep)
+    pb = one_node(True, nstep)
 
-  print(f"mujoco {mujoco.__version__}; joint blocked by armature {ARMATURE:g}; "
-        f"max |omega| {np.abs(rec['omega']).max():.2e} rad/s")
-  print(f"compiled: {layout}")
-  print(f"{'t s':>5} {'force Nm':>9} {'i_unclip A':>10} {'i_clip A':>9} "
-        f"{'T_mj K':>10} {'T_unclip K':>10} {'T_clip K':>10}")
-  for tq in (0.005, 0.5, 1.0, 2.0, 3.0, 4.0):
-    k = int(round(tq / DT)) - 1
-    print(f"{rec['t'][k]:5.3f} {rec['force'][k]:9.4f} {rec['i_unclipped'][k]:10.4f} "
-          f"{rec['i_clipped'][k]:9.4f} {rec['T'][k]:10.5f} {pa[k]:10.5f} {pb[k]:10.5f}")
+    print(
+        f"mujoco {mujoco.__version__}; joint blocked by armature {ARMATURE:g}; "
+        f"max |omega| {np.abs(rec['omega']).max():.2e} rad/s"
+    )
+    print(f"compiled: {layout}")
+    print(
+        f"{'t s':>5} {'force Nm':>9} {'i_unclip A':>10} {'i_clip A':>9} "
+        f"{'T_mj K':>10} {'T_unclip K':>10} {'T_clip K':>10}"
+    )
+    for tq in (0.005, 0.5, 1.0, 2.0, 3.0, 4.0):
+        k = int(round(tq / DT)) - 1
+        print(
+            f"{rec['t'][k]:5.3f} {rec['force'][k]:9.4f} {rec['i_unclipped'][k]:10.4f} "
+            f"{rec['i_clipped'][k]:9.4f} {rec['T'][k]:10.5f} {pa[k]:10.5f} {pb[k]:10.5f}"
+        )
 
-  T_end = float(rec["T"][-1])
-  err_a = abs(T_end - pa[-1]) / abs(pa[-1])
-  err_b = abs(T_end - pb[-1]) / abs(pb[-1])
-  # per-step act_dot check, independent of accumulated trajectory
-  ad_a = float(np.max(np.abs(rec["actdot"] - rec["actdot_a"]) / np.abs(rec["actdot_a"])))
-  ad_b = float(np.max(np.abs(rec["actdot"] - rec["actdot_b"]) / np.abs(rec["actdot_b"])))
-  match = "unclipped" if err_a < err_b else "clipped"
-  print(f"after {T_END} s: T_mj {T_end:.6f} K, unclipped {pa[-1]:.6f} K (rel err {err_a:.2e}), "
-        f"clipped {pb[-1]:.6f} K (rel err {err_b:.2e}) -> matches {match}")
-  print(f"per-step act_dot max rel err: vs unclipped {ad_a:.2e}, vs clipped {ad_b:.2e}")
+    T_end = float(rec["T"][-1])
+    err_a = abs(T_end - pa[-1]) / abs(pa[-1])
+    err_b = abs(T_end - pb[-1]) / abs(pb[-1])
+    # per-step act_dot check, independent of accumulated trajectory
+    ad_a = float(np.max(np.abs(rec["actdot"] - rec["actdot_a"]) / np.abs(rec["actdot_a"])))
+    ad_b = float(np.max(np.abs(rec["actdot"] - rec["actdot_b"]) / np.abs(rec["actdot_b"])))
+    match = "unclipped" if err_a < err_b else "clipped"
+    print(
+        f"after {T_END} s: T_mj {T_end:.6f} K, unclipped {pa[-1]:.6f} K (rel err {err_a:.2e}), "
+        f"clipped {pb[-1]:.6f} K (rel err {err_b:.2e}) -> matches {match}"
+    )
+    print(f"per-step act_dot max rel err: vs unclipped {ad_a:.2e}, vs clipped {ad_b:.2e}")
 
-  pid = pid_layout()
-  print(f"pos-vel controller dcmotor: nu {pid['nu']} na {pid['na']}")
-  print(f"  gainprm {np.array(pid['gainprm'])}")
+    pid = pid_layout()
+    print(f"pos-vel controller dcmotor: nu {pid['nu']} na {pid['na']}")
+    print(f"  gainprm {np.array(pid['gainprm'])}")
 
-  out = {
-      "mujoco_version": mujoco.__version__,
-      "rig": {"inertia": 0.01, "armature": ARMATURE, "integrator": "implicitfast", "timestep": DT,
-              "actuator": MOTOR, "voltage": VOLT, "duration": T_END,
-              "max_abs_omega": float(np.abs(rec["omega"]).max())},
-      "compiled": layout,
-      "force_after_4s": float(rec["force"][-1]),
-      "i_unclipped_after_4s": float(rec["i_unclipped"][-1]),
-      "i_clipped_after_4s": float(rec["i_clipped"][-1]),
-      "T_rise_mujoco_after_4s": T_end,
-      "T_rise_pred_unclipped": float(pa[-1]),
-      "T_rise_pred_clipped": float(pb[-1]),
-      "rel_err_unclipped": float(err_a),
-      "rel_err_clipped": float(err_b),
-      "actdot_max_rel_err_unclipped": ad_a,
-      "actdot_max_rel_err_clipped": ad_b,
-      "matches": match,
-      "pid_controller_layout": pid,
-  }
-  here = os.path.dirname(os.path.abspath(__file__))
-  path = os.path.join(here, "results", f"dcmotor_heat-{mujoco.__version__}.json")
-  os.makedirs(os.path.dirname(path), exist_ok=True)
-  with open(path, "w") as f:
-    json.dump(out, f, indent=2)
-  print(f"wrote {path}")
+    out = {
+        "mujoco_version": mujoco.__version__,
+        "rig": {
+            "inertia": 0.01,
+            "armature": ARMATURE,
+            "integrator": "implicitfast",
+            "timestep": DT,
+            "actuator": MOTOR,
+            "voltage": VOLT,
+            "duration": T_END,
+            "max_abs_omega": float(np.abs(rec["omega"]).max()),
+        },
+        "compiled": layout,
+        "force_after_4s": float(rec["force"][-1]),
+        "i_unclipped_after_4s": float(rec["i_unclipped"][-1]),
+        "i_clipped_after_4s": float(rec["i_clipped"][-1]),
+        "T_rise_mujoco_after_4s": T_end,
+        "T_rise_pred_unclipped": float(pa[-1]),
+        "T_rise_pred_clipped": float(pb[-1]),
+        "rel_err_unclipped": float(err_a),
+        "rel_err_clipped": float(err_b),
+        "actdot_max_rel_err_unclipped": ad_a,
+        "actdot_max_rel_err_clipped": ad_b,
+        "matches": match,
+        "pid_controller_layout": pid,
+    }
+    here = os.path.dirname(os.path.abspath(__file__))
+    path = os.path.join(here, "results", f"dcmotor_heat-{mujoco.__version__}.json")
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path, "w") as f:
+        json.dump(out, f, indent=2)
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":
-  main()
+    main()
