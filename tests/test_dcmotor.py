@@ -259,15 +259,16 @@ def test_warp_runs_dcmotors_as_mujoco_c_does(tmp_path):
         np.testing.assert_allclose(w[k], c[k], rtol=WARP_WHEEL_RTOL, err_msg=k)
 
 
-# a drive's mean torque, warp against C over 10 s, N m at the wheel: measured 1e-4 on the run below with the drive
-# angles kept within half a turn (rollout.wrap_drive_angles); 0.027 when they grew to about 120 rad in float32
+# a drive's mean torque, warp against C over 10 s, N m at the wheel. The old drive held each wheel to its own
+# angle setpoint, and float32's drift of a growing wheel angle read 0.027 N m of split until the angles were
+# wrapped (1e-4 then); batchveh's drive (model/drive.py) integrates the speed error itself and reads no angle
 SPLIT_ATOL = 2e-3
 
 
 @pytest.mark.slow
 def test_warp_keeps_the_front_rear_split_over_a_long_run(tmp_path):
-    """On a nearly flat 10 s run the four drives carry 0.18-0.22 N m each, held by the angle gain to their own
-    angles: warp's float32 wheel angles must not drift from C's (a 1e-4 rad drift is 0.02 N m of split). The
+    """On a nearly flat 10 s run the four drives carry 0.18-0.22 N m each, each held by its speed loop's
+    integral: warp's float32 integrals must not drift from C's (a 1e-4 rad drift is 0.02 N m of split). The
     small motor of benchmarks/motors_warp_vs_c.yaml on the slip tyre, its variant 1."""
     pytest.importorskip("warp")
     from batchveh.engines.warp import WarpEngine
@@ -293,9 +294,8 @@ def test_a_climb_too_steep_for_the_speed_sits_on_the_voltage_line(tmp_path):
     (K N) with i = T / (eta N K) from the wheel's mean torque (its load share); the four wheels' mean
     against the sweep's wheel_speed. The motors sit at the voltage line through the window.
 
-    30 s: at the voltage line MuJoCo's implicitfast still integrates the controller's kd (500 N m s/rad
-    at the wheel) as the motor's damping, not the back-EMF's N^2 K^2 / R' (1.6), so the vehicle nears
-    its steady speed with a time constant of about 2.5 s instead of 1 s (model/motors.py)."""
+    30 s, as with MuJoCo's own controller, whose kd slowed the approach to the line about 2.5x; batchveh's
+    drive leaves the back-EMF's N^2 K^2 / R' as the only damping there (the approach: tests/test_drive.py)."""
     path = _catalogue(
         tmp_path, nominal_voltage=24.0, terminal_resistance=0.5, gearhead={"ratio": 20.0, "efficiency": 0.9}
     )

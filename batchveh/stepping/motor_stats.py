@@ -54,7 +54,7 @@ _PER_MOTOR = {
     "current_rms": ("A", "RMS motor current over the steady window"),
     "current_peak": ("A", "peak |motor current| over the run after the settle"),
     "winding_temp_peak": ("deg C", "peak winding temperature over the run (one-node thermal model)"),
-    "winding_temp_end": ("deg C", "winding temperature at the end of the run"),
+    "winding_temp_end": ("deg C", "winding temperature the run's last step ran with"),
     "energy_drawn": ("J", "electrical energy drawn from the bus over the run after the settle"),
     "energy_regen": ("J", "electrical energy returned to the bus over the run after the settle"),
     "at_voltage_share": ("1", "share of the run's steps at the voltage line (the bus voltage)"),
