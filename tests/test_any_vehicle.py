@@ -80,7 +80,8 @@ def vehicles(draw) -> dict:
     inertia = _loaded_inertia(c, mass, radius, wheel_mass, ratio)
     torque = CURRENT_SHARE * c["eta"] * ratio * c["K"] * c["i_max"]  # N m at the wheel
     # smooth_step's peak acceleration is 15/8 omega / ramp: within `torque` and within the grip
-    ramp = 15 / 8 * max(inertia * omega / torque, omega * radius / (GRIP_SHARE * FRICTION * G), RAMP_MIN / (15 / 8))
+    ramp = 15 / 8 * max(inertia * omega / torque, omega * radius / (GRIP_SHARE * FRICTION * G))
+    ramp = max(RAMP_MIN, math.ceil(ramp * 10) / 10)  # whole 0.1 s: whole steps, so the window ends with the run
     assume(ramp <= RAMP_MAX)
     return {
         "mass": mass,
@@ -146,6 +147,9 @@ def _measure(ex: dict) -> dict:
     got["speed_shortfall"] = max(abs(float(out[f"drive_{c}_speed_shortfall"][0])) for c in CORNERS)
     got["at_current_share"] = max(float(out[f"drive_{c}_at_current_share"][0]) for c in CORNERS)
     got["steady_current_share"] = max(float(out[f"drive_{c}_current_rms"][0]) for c in CORNERS) / i_max
+    # the steering motors (STEER, 6.8 A) hold the wheels straight against the drive force's lever, the scrub
+    # radius: on a heavy vehicle's ramp they may sit at their current limit, which the torque ratio then reads
+    got["steer_current_peak_share"] = max(float(out[f"steer_{c}_current_peak"][0]) for c in CORNERS) / 6.8
     got["kp"], got["kv"] = (float(batch.params[f"_dc.{k}"][0, 0]) for k in ("kp", "kv"))
     return got
 
