@@ -410,7 +410,7 @@ ROWS = [
     Row(
         "Motors in the loop near their limits, warp float32 against MuJoCo C float64, 2,048 random variants x 10 s "
         "on the slip tyre (current RMS, temperature rise, energy, speed shortfall per drive; bus energy)",
-        ["h200-warp-vs-cpu-2core-c-dcmotor-compare.json"],
+        ["h100-warp-vs-cpu-2core-c-dcmotor-compare.json"],
         lambda d: (
             "p99 **"
             + f"{max(d['per_drive'][k]['p99'] for k in DC_COMPARED):.1e}"
@@ -420,7 +420,7 @@ ROWS = [
             + f"{d['vehicle']['bus_energy_wh']['p99']:.1e}; motor_status agrees on "
             + f"{d['motor_status_agree']:.2%}"
         ),
-        "one H200 (warp); 2 cores (C)",
+        "one H100 (warp); 2 cores (C)",
         "`python benchmarks/motors.py compare WARP_RESULTS C_RESULTS` on two runs of "
         "`benchmarks/motors_warp_vs_c.yaml`",
     ),
@@ -430,7 +430,7 @@ ROWS = [
         _motors,
         lambda d: gpu_of(d["machine"]),
         lambda d: (
-            "`python benchmarks/motors.py --size 131072 --time 5 --repeat 1 --backend warp`"
+            "`python benchmarks/motors.py --size 131072 --time 5 --repeat 2 --backend warp`"
             if d["machine"].get("gpus")
             else "`python benchmarks/motors.py --size 2048 --time 2 --repeat 3`"
         ),

@@ -214,3 +214,25 @@ def test_a_mission_reports_the_motors_per_segment(tmp_path):
         assert out[f"{s}_drive_lf_energy_drawn"][0] > 0
         assert out[f"{s}_drive_lf_energy_regen"][0] < out[f"{s}_drive_lf_energy_drawn"][0]
     assert out["seg3_stop_drive_lf_energy_regen"][1] > out["seg3_stop_drive_lf_energy_drawn"][1]
+
+
+def test_a_run_that_fails_its_physics_checks_is_counted_apart_never_as_a_reason(tmp_path):
+    """The small motor with the servo's drive gains set by hand (kv 500 N m s/rad against the 9.3 that a 5 ms
+    step allows on its wheel, 0.086 kg m^2 with the rotor) on the slip tyre: the flat run chatters. in_loop
+    counts it as not simulated, names the check, and gives it no reason to fail; the climb, which the motor
+    cannot hold, still fails for its own reason, and the coverage is over the one variant simulated."""
+    import dataclasses
+
+    from batchveh.analysis.motors import IN_LOOP_REASONS, in_loop_lines
+
+    spec = _spec(tmp_path, tyre="slip")
+    motors = dataclasses.replace(spec.vehicle.motors, dc_drive_kp=5000.0, dc_drive_kv=500.0)
+    spec = dataclasses.replace(spec, vehicle=dataclasses.replace(spec.vehicle, motors=motors))
+    df = __import__("pandas").DataFrame({k: v for k, v in spec.params.items()})
+    best, table, detail = in_loop(spec, df, CATALOGUE, [SMALL], steer=BIG, share=0.5, hot=False)
+    row, d = table.iloc[0], detail[SMALL]
+    assert best is None and row["not_simulated"] == 1 and row["not_simulated_why"] == "1 chatter"
+    assert list(d["motor_status"])[0] == "unstable" and list(d["motor_check"])[0] == "chatter"
+    assert not d[[f"fails_{r}" for r in IN_LOOP_REASONS]].iloc[0].any()  # never a reason
+    assert d[[f"fails_{r}" for r in IN_LOOP_REASONS]].iloc[1].any() and row["coverage"] == 0.0
+    assert in_loop_lines(table)[0].endswith("; 1 variant could not be simulated: 1 chatter")

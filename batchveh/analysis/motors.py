@@ -438,7 +438,9 @@ def in_loop(
                     for key in start
                 }
         # a variant whose run failed a physics check (or diverged) says nothing of the motor: apart, never a reason
-        lost = (res["motor_status"] == "unstable").to_numpy() | (res["status_code"].to_numpy() == 1)
+        diverged = res["status_code"].to_numpy() == 1
+        lost = (res["motor_status"] == "unstable").to_numpy() | diverged
+        why_lost = pd.Series(np.where(diverged, "diverged", res["motor_check"].to_numpy()))[lost].value_counts()
         why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE)
         why.loc[lost, :] = False
         fits = ~why.any(axis=1)
@@ -450,6 +452,7 @@ def in_loop(
                 "continuous_torque_at_wheel": c["eta"] * c["N"] * c["K"] * c["i_max"] if c["i_max"] else np.nan,
                 "coverage": float(fits[~lost].sum() / simulated),
                 "not_simulated": int(lost.sum()),
+                "not_simulated_why": ", ".join(f"{v} {k}" for k, v in why_lost.items()),
                 **{f"fails_{r}": int(why[r].sum()) for r in IN_LOOP_REASONS},
                 "start_rise_median": float(np.median(start["motors.drive_start_rise"])),
                 "residual_K": residual,
@@ -462,6 +465,20 @@ def in_loop(
             if stop_at_first:
                 break
     return best, pd.DataFrame(rows), detail
+
+
+def in_loop_lines(table: pd.DataFrame) -> list[str]:
+    """One line per candidate of an `in_loop` table: its coverage over the variants simulated, the counted
+    reasons its misses fail for, and, apart, the variants that could not be simulated (never a reason)."""
+    lines = []
+    for _, row in table.iterrows():
+        fails = ", ".join(f"{r} {int(row[f'fails_{r}'])}" for r in IN_LOOP_REASONS if row[f"fails_{r}"])
+        line = f"{row['motor']}: covers {row['coverage']:.1%}" + (f"; fails: {fails}" if fails else "")
+        if row.get("not_simulated", 0):
+            k = int(row["not_simulated"])
+            line += f"; {k} variant{'s' * (k > 1)} could not be simulated: {row['not_simulated_why']}"
+        lines.append(line)
+    return lines
 
 
 def _in_loop_reasons(res: pd.DataFrame, motor: Any, c: dict, battery: Battery | None, limited: float) -> pd.DataFrame:
