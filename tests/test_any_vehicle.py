@@ -149,7 +149,8 @@ def _measure(ex: dict) -> dict:
     got["steady_current_share"] = max(float(out[f"drive_{c}_current_rms"][0]) for c in CORNERS) / i_max
     # the steering motors (STEER, 6.8 A) hold the wheels straight against the drive force's lever, the scrub
     # radius: on a heavy vehicle's ramp they may sit at their current limit, which the torque ratio then reads
-    got["steer_current_peak_share"] = max(float(out[f"steer_{c}_current_peak"][0]) for c in CORNERS) / 6.8
+    steer_i_max = MOTORS[STEER].resolved()["i_max"]
+    got["steer_current_peak_share"] = max(float(out[f"steer_{c}_current_peak"][0]) for c in CORNERS) / steer_i_max
     got["kp"], got["kv"] = (float(batch.params[f"_dc.{k}"][0, 0]) for k in ("kp", "kv"))
     return got
 
