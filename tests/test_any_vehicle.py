@@ -49,13 +49,21 @@ GRIP_SHARE = 0.5  # ... and at most this share of the friction
 RAMP_MIN, RAMP_MAX = 1.0, 30.0  # s; longer ramps are skipped (about 1.3 s of MuJoCo C an example at 30 s)
 RECOVER, WINDOW = 2.0, 3.0  # s after the ramp before the steady window, and the window's length
 
-# the tolerances; measured over the long pass (SLOW_EXAMPLES, validation/results/any_vehicle.json): see each
-TORQUE_RATIO = 1 + TORQUE_TOL  # peak |applied torque| / (N K eta i_max); measured max 1.0000000 (at the bound)
-FLIP_SHARE = 0.0  # chatter: steps whose torque flips sign by half the bound; measured max 0
-SPEED_ERR = 0.01  # steady speed against the imposed, relative; measured max 1.5e-4
+# the tolerances. Measured (validation/results/any_vehicle.json) over a record-only pass of this strategy, 150
+# draws with these settings, 149 of them outside the slip tyre's chatter (CHATTER below), and over the long
+# test's generate phase (40 passing draws before its first failure):
+TORQUE_RATIO = 1 + TORQUE_TOL  # peak |applied torque| / (N K eta i_max): measured max 1.000003 (a steering motor
+# held at its current limit, the drive force's lever on the scrub radius, on a 1,404 kg vehicle's ramp); 1.047
+# in CHATTER
+FLIP_SHARE = 0.0  # steps whose torque flips sign by half the bound: measured 0; 0.65-1.0 in the chatter
+SPEED_ERR = 0.01  # steady speed against the imposed, relative: measured max 3.4e-5 (5.3e-5 even in the chatter)
+# (motor_status 'unstable' also reads the applied torque's RMS over the current's, at most 1.2: measured max
+# 1.00015 outside the chatter, 1.21-1.66 in it)
 
 FAST_EXAMPLES, SLOW_EXAMPLES = 12, 150
-COMMON = {"deadline": None, "derandomize": True, "database": None}  # CI repeats the same draws; no .hypothesis/
+# CI repeats the same draws; no example database (Hypothesis still caches constants in .hypothesis/, which it
+# gitignores itself)
+COMMON = {"deadline": None, "derandomize": True, "database": None}
 RECORD = os.environ.get("BATCHVEH_ANY_VEHICLE_RECORD")
 
 
@@ -65,15 +73,10 @@ def _loaded_inertia(motor: dict, mass: float, radius: float, wheel_mass: float, 
     return mass * radius**2 / 4 + 0.5 * wheel_mass * radius**2 + motor["J"] * ratio**2
 
 
-@st.composite
-def vehicles(draw) -> dict:
-    """One vehicle, motor, ratio and straight run; skipped (assume) where its ramp exceeds RAMP_MAX."""
-    mass = draw(st.floats(20.0, 2000.0), label="mass")
-    radius = draw(st.floats(0.05, 0.5), label="radius")
-    ratio = draw(st.floats(5.0, 200.0), label="ratio")
-    motor = draw(st.sampled_from(sorted(MOTORS)), label="motor")
-    share = draw(st.floats(0.3, 0.7), label="share")  # of the no-load wheel speed
-    tyre = draw(st.sampled_from(["slip", "rigid"]), label="tyre")
+def example(mass: float, radius: float, ratio: float, motor: str, share: float, tyre: str) -> dict | None:
+    """The run of one vehicle, drive motor and ratio at `share` of the wheel's no-load speed: the imposed speed
+    and the ramp that keeps the motor within CURRENT_SHARE of its limit and the wheels within GRIP_SHARE of
+    the friction; None where that ramp exceeds RAMP_MAX."""
     c = MOTORS[motor].resolved()
     wheel_mass = max(0.3, 0.03 * mass)
     omega = share * c["V"] / (c["K"] * ratio)  # rad/s at the wheel
@@ -82,7 +85,8 @@ def vehicles(draw) -> dict:
     # smooth_step's peak acceleration is 15/8 omega / ramp: within `torque` and within the grip
     ramp = 15 / 8 * max(inertia * omega / torque, omega * radius / (GRIP_SHARE * FRICTION * G))
     ramp = max(RAMP_MIN, math.ceil(ramp * 10) / 10)  # whole 0.1 s: whole steps, so the window ends with the run
-    assume(ramp <= RAMP_MAX)
+    if ramp > RAMP_MAX:
+        return None
     return {
         "mass": mass,
         "radius": radius,
@@ -95,6 +99,22 @@ def vehicles(draw) -> dict:
         "wheel_mass": wheel_mass,
         "I_load": inertia,
     }
+
+
+@st.composite
+def vehicles(draw) -> dict:
+    """One vehicle, motor, ratio and straight run; skipped (assume) where its ramp exceeds RAMP_MAX: a third
+    of the draws (74 of 224 in the long pass's 150)."""
+    ex = example(
+        mass=draw(st.floats(20.0, 2000.0), label="mass"),
+        radius=draw(st.floats(0.05, 0.5), label="radius"),
+        ratio=draw(st.floats(5.0, 200.0), label="ratio"),
+        motor=draw(st.sampled_from(sorted(MOTORS)), label="motor"),
+        share=draw(st.floats(0.3, 0.7), label="share"),  # of the no-load wheel speed
+        tyre=draw(st.sampled_from(["slip", "rigid"]), label="tyre"),
+    )
+    assume(ex is not None)
+    return ex
 
 
 def _spec(ex: dict):
@@ -155,32 +175,53 @@ def _measure(ex: dict) -> dict:
     return got
 
 
-def _check(ex: dict) -> None:
+def _check(ex: dict, explore: bool = False) -> None:
+    """Run the example and assert the property; explore: lead Hypothesis towards the worst margins (target)."""
     got = _measure(ex)
     if RECORD:
         with open(RECORD, "a") as f:
             f.write(json.dumps({"example": ex, "measured": got}) + "\n")
-    target(got["motor_torque_ratio"], label="torque ratio")
-    target(max(got["speed_track_err"], got["speed_shortfall"]), label="speed error")
+    if explore:
+        target(got["motor_torque_ratio"], label="torque ratio")
+        target(max(got["speed_track_err"], got["speed_shortfall"]), label="speed error")
     where = f"{ex} -> {got}"
     assert got["status_code"] == 0, where
     assert got["motor_torque_ratio"] <= TORQUE_RATIO, where
     assert MOTOR_STATUS[int(got["motor_status_code"])] != "unstable", where
     assert got["motor_flip_share"] <= FLIP_SHARE, where
     assert got["speed_track_err"] <= SPEED_ERR and got["speed_shortfall"] <= SPEED_ERR, where
-    assert math.isfinite(got["motor_rms_ratio"]), where
 
 
 @settings(max_examples=FAST_EXAMPLES, **COMMON)
 @given(vehicles())
 def test_any_vehicle_keeps_its_speed_within_the_current_bound(ex):
     """FAST_EXAMPLES draws: about 20 s on 2 cores."""
-    _check(ex)
+    _check(ex, explore=True)
 
 
 @pytest.mark.slow
 @settings(max_examples=SLOW_EXAMPLES, **COMMON)
 @given(vehicles())
 def test_any_vehicle_keeps_its_speed_within_the_current_bound_long(ex):
-    """SLOW_EXAMPLES draws, the margins' measurement."""
-    _check(ex)
+    """SLOW_EXAMPLES draws, the margins' measurement. Fails on the slip tyre's chatter (CHATTER below)."""
+    _check(ex, explore=True)
+
+
+# A failure of the long pass, as Hypothesis shrank it in a first run: 998 kg on 0.05 m wheels, the 48 V maxon
+# 353297 on 87:1, 0.40 km/h. On the slip tyre the drives and the steering chattered at 100 Hz (period 2 steps):
+# flip share 0.91, the applied torque's RMS 1.57x the current's, a steering motor's applied torque 1.047x its
+# bound; the mean speed still within 9e-5. The same vehicle on the rigid contact was clean. The cause was the
+# slip tyre's bristle damper and stability floor (model/tyres.py, explicit), sized on the drive joint's rim
+# mass, wheel.mass / 2 + J N^2 / r^2 = 420 kg here, while the tyre's force also turns the steering through the
+# scrub radius e = 0.19 m, whose inertia there, I_steer / e^2, is 94 kg (validation/results/any_vehicle.json).
+# The rim mass is now the lighter of the two (tyres.rim_mass, batch.steer_mass). Also seen, before that: 124 kg,
+# r 0.0625 m, 86:1 (RMS ratio 1.21, no flips).
+CHATTER = {"mass": 998.0, "radius": 0.05, "ratio": 87.0, "motor": "maxon-353297-48V_NPT025-i28", "share": 0.5}
+SMALLER = {"mass": 124.0, "radius": 0.0625, "ratio": 86.0, "motor": "maxon-353297-48V_NPT025-i28", "share": 0.5}
+
+
+@pytest.mark.parametrize("tyre", ["rigid", "slip"])
+@pytest.mark.parametrize("case", [CHATTER, SMALLER], ids=["998kg", "124kg"])
+def test_a_heavy_rotor_on_a_small_wheel(tyre, case):
+    """A heavy geared rotor on a small wheel, on both wheel-ground models: the property holds."""
+    _check(example(**case, tyre=tyre))

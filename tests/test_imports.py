@@ -21,6 +21,7 @@ LAYERS = {
         for m in (
             "",
             "motors",
+            "drive",
             "vehicle",
             "indexing",
             "tyres",
@@ -31,6 +32,7 @@ LAYERS = {
             "scenarios",
             "missions",
             "params",
+            "reference",
         )
     ),
     # a chunk of variants -> the batched model; the pure step and scan bodies; the reductions in the carry
@@ -42,9 +44,9 @@ LAYERS = {
     "sweeping": tuple(
         f"sweeping.{m}" for m in ("", "storage", "spec", "results", "prestart", "chunks", "cluster", "gpus")
     ),
-    "analysis": tuple(f"analysis.{m}" for m in ("", "motors", "plot", "sensitivity")),
+    "analysis": tuple(f"analysis.{m}" for m in ("", "motors", "plot", "sensitivity", "report")),
     "face": ("",),  # batchveh/__init__.py: the public names
-    "cli": ("sweep", "run", "render", "sensitivity"),
+    "cli": ("sweep", "run", "render", "sensitivity", "size"),
 }
 LAYERS = {k: tuple(m.rstrip(".") for m in v) for k, v in LAYERS.items()}
 # set at the top of batchveh/__init__.py before it imports any submodule, so any module may read them

@@ -138,7 +138,7 @@ def params(p: Mapping[str, Any], xp=np) -> dict[str, Any]:
         "quarter_mass": quarter,
         "gravity": col(p["gravity"]),
         "length": col(p["tyre.relaxation_length"]),
-        "rim_mass": col(p["wheel.mass"]) / 2 + col(p[tyres.DRIVE_ARMATURE]) / col(p["wheel.radius"]) ** 2,
+        "rim_mass": tyres.rim_mass(p, col),
     }
 
 

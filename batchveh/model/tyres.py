@@ -65,6 +65,22 @@ N_MIN = 1e-6
 # the derived parameter holding each variant's drive-joint armature, kg m^2 (stepping.batch.drive_armature):
 # the rim mass of this tyre's and the soil's stability floor reads it
 DRIVE_ARMATURE = "_drive_armature"
+# the derived parameter holding each variant's steering inertia over its contact's lever about the steering
+# axis, squared (kg: stepping.batch.steer_mass): the rim mass is the lighter of it and the wheel's spin mass
+STEER_MASS = "_steer_mass"
+
+
+def rim_mass(p: Mapping[str, Any], col) -> Any:
+    """The lightest mass the tyre force meets at the contact, (..., 1): the wheel's spin inertia with the drive
+    joint's armature (the servo's, or a dcmotor's rotor J N^2) over r^2, or, where lighter, the steering hinge's
+    inertia over the contact's lever about its axis squared (the tyre's force turns the hub through that lever: a
+    heavy geared rotor makes the first large while the second stays the hub's). A towing wheel has no servo to
+    hold it. `col` shapes a parameter as the caller's other inputs."""
+    spin = col(p["wheel.mass"]) / 2 + col(p[DRIVE_ARMATURE]) / col(p["wheel.radius"]) ** 2
+    if STEER_MASS not in p:
+        return spin
+    steer = col(p[STEER_MASS])
+    return spin * (spin <= steer) + steer * (spin > steer)
 
 
 @dataclass(frozen=True)
@@ -125,10 +141,7 @@ def params(p: Mapping[str, Any], xp=np) -> dict[str, Any]:
         "c_s": col(p["tyre.slip_stiffness"]),
         "length": col(p["tyre.relaxation_length"]),
         "c_rr": col(p["wheel.rolling_resistance"]),
-        # the lightest mass the tyre force meets at the rim: the wheel's spin inertia with the drive
-        # joint's armature (the servo's, or a dcmotor's rotor J N^2), over r^2 (a towing wheel has no
-        # servo to hold it)
-        "rim_mass": col(p["wheel.mass"]) / 2 + col(p[DRIVE_ARMATURE]) / col(p["wheel.radius"]) ** 2,
+        "rim_mass": rim_mass(p, col),
     }
 
 

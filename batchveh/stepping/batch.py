@@ -46,7 +46,7 @@ from batchveh.model.params import (
 )
 from batchveh.model.scenarios import Scenario, gravity_vector
 from batchveh.model.soil import check_ground
-from batchveh.model.tyres import DRIVE_ARMATURE
+from batchveh.model.tyres import DRIVE_ARMATURE, STEER_MASS
 from batchveh.model.vehicle import Vehicle, build_model, layout, rolling_resistance_torque
 from batchveh.stepping import fields as structure
 
@@ -213,6 +213,7 @@ def make_batch(
     if vehicle.tyre.model == "rigid" and rolls and any(k in swept for k in ROLLING_INPUTS):
         fields["dof_frictionloss"] = _rolling(model, params, n)
     params[DRIVE_ARMATURE] = drive_armature(model, fields, n)
+    params[STEER_MASS] = steer_mass(model, fields, params, n)
     return VariantBatch(model=model, fields=fields, params=params, n=n)
 
 
@@ -251,6 +252,21 @@ def drive_armature(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], n: i
     dof = layout(model).motor_dof[0]
     arm = np.asarray(fields["dof_armature"])[:, dof] if "dof_armature" in fields else model.dof_armature[dof]
     return np.broadcast_to(np.asarray(arm, float), (n,)).copy()
+
+
+def steer_mass(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], params, n: int) -> np.ndarray:
+    """(n,) each variant's steering inertia (dof_M0 of the front-left steering hinge: the hub's and wheel's with
+    the rotor's) over the squared lever of its wheel's contact about the steering axis (the wheel's centre from
+    the chassis corner, in the ground plane), kg: the mass the tyre's force meets through the steering (1e30
+    where the wheel sits on its axis)."""
+    dof = layout(model).motor_dof[4]
+    m0 = np.broadcast_to(fields.get("dof_M0", model.dof_M0), (n, model.nv))[:, dof]
+
+    def p(k):
+        return np.broadcast_to(np.asarray(params[k], float), (n,))
+
+    lever2 = (p("wheel.x_cg") - p("chassis.length") / 2) ** 2 + (p("wheel.y_cg") - p("chassis.width") / 2) ** 2
+    return np.where(lever2 > 1e-12, m0 / np.maximum(lever2, 1e-12), 1e30)
 
 
 # the parameters the rolling-resistance torque depends on (vehicle.rolling_resistance_torque)
