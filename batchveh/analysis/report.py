@@ -1,0 +1,355 @@
+"""The sizing report: one page an engineer can hand on, in Markdown and in static HTML, with its figures beside it.
+
+`write(folder, sizing)` writes `report.md`, `report.html`, `figures/*.png` and `verdicts.parquet` from a
+`Sizing` (what `batchveh.size` found: the servo sweep's rows, the screen's table, each in-loop run's rows and
+table, the chosen motor, the worst variant's trace). Nothing here simulates: the figures read results.
+
+The figures:
+- the torque-speed plane of the chosen motor and the next smaller one, at the wheel: the voltage line at the bus
+  voltage (eta N K (V - K N w) / R, at 25 deg C and at the hottest winding of the run), the continuous current's
+  torque, the no-load speed, and each variant's operating points in the loop (its RMS torque at its mean speed,
+  its low-pass peak);
+- where the variants a motor misses sit in the swept parameters (the first two), by reason;
+- the worst variant's winding temperature in time, and its bus power and energy against the battery's limits.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from batchveh.analysis.motors import IN_LOOP_REASONS, IN_LOOP_TEXT, REASON_TEXT, REASONS, WHEELS
+
+FIGURES = "figures"
+
+
+@dataclass
+class Sizing:
+    """What a sizing run found (batchveh.size): the inputs, each pass's tables and rows, and the verdict."""
+
+    name: str
+    spec_text: str  # the sweep spec's YAML as given
+    params: list[str]  # the swept parameters
+    servo: pd.DataFrame  # the servo sweep's rows (the demand)
+    screen: pd.DataFrame  # the screen's table, one row per catalogue motor
+    loop: pd.DataFrame  # in_loop's table, one row per candidate run in the loop
+    detail: dict[str, pd.DataFrame]  # per candidate run in the loop: its variants' columns and reasons
+    chosen: str | None
+    steer: str
+    share: float
+    catalogue: dict[str, Any]  # name -> batchveh.model.motors.DCMotor
+    battery: Any = None  # batchveh.analysis.motors.Battery or None
+    trace: pd.DataFrame | None = None  # the worst variant's time series (batchveh.size.trace)
+    worst: dict[str, Any] = field(default_factory=dict)  # the worst variant's parameter values
+    versions: dict[str, str] = field(default_factory=dict)
+    wall_s: dict[str, float] = field(default_factory=dict)
+
+
+def smaller(s: Sizing) -> str | None:
+    """The catalogue motor next below the chosen one by continuous torque at the wheel, among those run in the
+    loop, else in the screen's table."""
+    ranked = list(s.screen["motor"])
+    if s.chosen is None or s.chosen not in ranked:
+        return None
+    below = ranked[: ranked.index(s.chosen)]
+    in_loop = [m for m in below if m in s.detail]
+    return (in_loop or below or [None])[-1]
+
+
+def verdict_table(s: Sizing) -> pd.DataFrame:
+    """One row per catalogue motor: its continuous torque at the wheel, the screen's coverage and counted
+    reasons, and where it ran in the loop, the loop's coverage, counted reasons and the variants that could not
+    be simulated."""
+    rows = []
+    loop = s.loop.set_index("motor") if len(s.loop) else pd.DataFrame()
+    for _, r in s.screen.iterrows():
+        name = r["motor"]
+        row = {
+            "motor": name,
+            "ratio": f"{r['gear_ratio']:g}:1",
+            "continuous at wheel (N m)": round(float(r["continuous_torque_at_wheel"]), 3),
+            "screen": f"{r['coverage']:.1%}",
+            "screen misses": _counts(r, REASONS),
+        }
+        if name in loop.index:
+            q = loop.loc[name]
+            row["in the loop"] = f"{q['coverage']:.1%}"
+            row["loop misses"] = _counts(q, IN_LOOP_REASONS)
+            row["not simulated"] = q["not_simulated_why"] if q["not_simulated"] else "0"
+        else:
+            row["in the loop"], row["loop misses"], row["not simulated"] = "not run", "", ""
+        row["verdict"] = "chosen" if name == s.chosen else ""
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _counts(row: Any, reasons: tuple[str, ...]) -> str:
+    parts = [f"{k.replace('_', ' ')} {int(row[f'fails_{k}'])}" for k in reasons if row[f"fails_{k}"]]
+    return ", ".join(parts) or "none"
+
+
+def verdicts(s: Sizing) -> pd.DataFrame:
+    """Per variant and candidate run in the loop (long form): the swept values, `motor`, `fits`, the reasons it
+    fails (`;`-separated, IN_LOOP_REASONS), `motor_status`, `motor_check` and whether it could be simulated."""
+    frames = []
+    for name, d in s.detail.items():
+        why = d[[f"fails_{r}" for r in IN_LOOP_REASONS]].to_numpy(bool)
+        lost = (d["motor_status"] == "unstable").to_numpy() | (d["status_code"].to_numpy() == 1)
+        f = d[list(s.params)].copy()
+        f.insert(0, "variant", np.arange(len(d)))
+        f["motor"] = name
+        f["simulated"] = ~lost
+        f["fits"] = ~lost & ~why.any(axis=1)
+        f["reasons"] = [";".join(r for r, bad in zip(IN_LOOP_REASONS, w, strict=True) if bad) for w in why]
+        f["motor_status"] = d["motor_status"].to_numpy()
+        f["motor_check"] = d["motor_check"].to_numpy()
+        frames.append(f)
+    return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+
+# --- the figures ---
+
+
+def torque_speed(ax, s: Sizing, name: str) -> None:
+    """One motor's torque-speed plane at the wheel, with its in-the-loop operating points."""
+    c = s.catalogue[name].resolved()
+    n, k, eta, r, v = c["N"], c["K"], c["eta"], c["R"], c["V"]
+    w0 = v / (k * n)
+    w = np.linspace(0.0, w0, 100)
+    d = s.detail.get(name)
+    hot = float(d[[f"{m}_winding_temp_peak" for m in WHEELS]].to_numpy().max()) if d is not None else 25.0
+    for temp, style in ((25.0, "-"), (hot, "--")):
+        rt = r * (1 + 0.0039 * (temp - 25.0))
+        ax.plot(w, eta * n * k * (v - k * n * w) / rt, "k" + style, lw=1, label=f"voltage line, winding {temp:.0f} C")
+    if c["i_max"]:
+        cont = eta * n * k * c["i_max"]
+        ax.fill_between(w, 0, np.minimum(cont, eta * n * k * (v - k * n * w) / r), color="tab:green", alpha=0.15,
+                        label=f"continuous current: {cont:.2f} N m")  # fmt: skip
+    if d is not None:
+        speed = d["wheel_speed"].abs().to_numpy()
+        rms = d[[f"{m}_rms" for m in WHEELS]].abs().max(axis=1).to_numpy()
+        peak = d[[f"{m}_peak_lp_all" for m in WHEELS]].abs().max(axis=1).to_numpy()
+        ax.scatter(speed, peak, s=6, color="tab:orange", label="low-pass peak")
+        ax.scatter(speed, rms, s=6, color="tab:blue", label="RMS (steady window)")
+    top = eta * n * k * v / r
+    if c["i_max"]:  # the region that matters: up to a few times the continuous torque, or the highest point
+        top = min(top, max(3 * eta * n * k * c["i_max"], 1.3 * float(np.max(peak)) if d is not None else 0.0))
+    ax.set_xlim(0, w0 * 1.05)
+    ax.set_ylim(0, top)
+    ax.set_xlabel("wheel speed (rad/s)")
+    ax.set_ylabel("drive torque at the wheel (N m)")
+    ax.set_title(f"{name}\n{n:g}:1, eta {eta:g}, {v:g} V", fontsize=9)
+    ax.legend(fontsize=7, loc="upper right")
+
+
+def misses(ax, s: Sizing, name: str) -> None:
+    """Where the variants `name` misses in the loop sit in the first two swept parameters, by reason."""
+    d = s.detail[name]
+    x, y = s.params[0], (s.params[1] if len(s.params) > 1 else None)
+    yv = d[y].to_numpy(float) if y else np.zeros(len(d))
+    lost = (d["motor_status"] == "unstable").to_numpy() | (d["status_code"].to_numpy() == 1)
+    why = d[[f"fails_{r}" for r in IN_LOOP_REASONS]].to_numpy(bool)
+    ok = ~lost & ~why.any(axis=1)
+    ax.scatter(d[x][ok], yv[ok], s=8, color="0.75", label=f"covered ({ok.sum()})")
+    for j, reason in enumerate(IN_LOOP_REASONS):
+        hit = why[:, j] & ~lost
+        if hit.any():
+            ax.scatter(d[x][hit], yv[hit], s=14, label=f"{reason.replace('_', ' ')} ({hit.sum()})")
+    if lost.any():
+        ax.scatter(d[x][lost], yv[lost], s=20, marker="x", color="k", label=f"not simulated ({lost.sum()})")
+    ax.set_xlabel(x)
+    ax.set_ylabel(y or "")
+    ax.set_title(f"{name}: what it misses in the loop", fontsize=9)
+    ax.legend(fontsize=7)
+
+
+def worst_trace(axes, s: Sizing) -> None:
+    """The worst variant's winding temperatures, and its bus power and energy against the battery."""
+    t = s.trace
+    ax, bx = axes
+    for m in WHEELS:
+        ax.plot(t["time"], t[f"{m}_winding_temp"], lw=1, label=m)
+    c = s.catalogue[s.chosen].resolved() if s.chosen else None
+    if c is not None and np.isfinite(c["T_max"]):
+        ax.axhline(c["T_max"], color="r", lw=1, ls="--", label=f"maximum {c['T_max']:g} C")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("winding temperature (deg C)")
+    where = ", ".join(f"{k} {v:.4g}" for k, v in s.worst.items())
+    ax.set_title(f"the hottest variant in the loop, from its hot start\n({where})", fontsize=9)
+    ax.legend(fontsize=7)
+    bx.plot(t["time"], t["bus_power"], lw=1, color="tab:blue", label="bus power (W)")
+    if s.battery is not None:
+        bx.axhline(s.battery.max_power, color="tab:blue", ls="--", lw=1, label=f"battery's {s.battery.max_power:.0f} W")
+    bx.set_xlabel("time (s)")
+    bx.set_ylabel("bus power (W)")
+    cx = bx.twinx()
+    cx.plot(t["time"], t["bus_energy_wh"], lw=1, color="tab:red", label="bus energy (Wh)")
+    cx.set_ylabel("bus energy (Wh)")
+    if s.battery is not None:
+        cx.set_title(f"battery {s.battery.energy_wh:.0f} Wh: the run uses {t['bus_energy_wh'].iloc[-1]:.3g} Wh",
+                     fontsize=9)  # fmt: skip
+    bx.legend(fontsize=7, loc="upper left")
+    cx.legend(fontsize=7, loc="upper right")
+
+
+def figures(folder: Path, s: Sizing) -> dict[str, str]:
+    """The PNGs under folder/figures: {title: relative path}."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = {}
+    (folder / FIGURES).mkdir(parents=True, exist_ok=True)
+    shown = [m for m in (smaller(s), s.chosen) if m is not None]
+    if shown:
+        fig, axes = plt.subplots(1, len(shown), figsize=(5.5 * len(shown), 4.2), squeeze=False)
+        for ax, name in zip(axes[0], shown, strict=True):
+            torque_speed(ax, s, name)
+        out["The torque-speed plane at the wheel"] = _save(fig, folder, "torque_speed.png")
+    looped = [m for m in shown if m in s.detail]
+    if looped:
+        fig, axes = plt.subplots(1, len(looped), figsize=(5.5 * len(looped), 4.2), squeeze=False)
+        for ax, name in zip(axes[0], looped, strict=True):
+            misses(ax, s, name)
+        out["Where the misses are"] = _save(fig, folder, "misses.png")
+    if s.trace is not None:
+        fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+        worst_trace(axes, s)
+        out["The hottest variant: winding and bus"] = _save(fig, folder, "worst.png")
+    return out
+
+
+def _save(fig, folder: Path, name: str) -> str:
+    fig.tight_layout()
+    fig.savefig(folder / FIGURES / name, dpi=110)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return f"{FIGURES}/{name}"
+
+
+# --- the page ---
+
+
+def _md_table(df: pd.DataFrame) -> str:
+    cols = [str(c) for c in df.columns]
+    lines = ["| " + " | ".join(cols) + " |", "| " + " | ".join("---" for _ in cols) + " |"]
+    for _, row in df.iterrows():
+        lines.append("| " + " | ".join(str(v).replace("|", "/") for v in row.to_numpy()) + " |")
+    return "\n".join(lines)
+
+
+def catalogue_table(s: Sizing) -> pd.DataFrame:
+    """The catalogue entries the report used (the chosen, the next smaller, the steering motor): their numbers."""
+    names = [m for m in dict.fromkeys([s.chosen, smaller(s), s.steer]) if m]
+    rows = []
+    for name in names:
+        c = s.catalogue[name].resolved()
+        rows.append({"motor": name, "K (N m/A)": c["K"], "R (Ohm)": c["R"], "bus (V)": c["V"], "i_max (A)": c["i_max"],
+                     "R_T (K/W)": c["R_T"], "tau_T (s)": c["t_T"], "T_max (C)": c["T_max"], "ratio": c["N"],
+                     "eta": c["eta"], "rotor (kg m^2)": c["J"]})  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def headline(s: Sizing) -> str:
+    """The verdict in one sentence."""
+    n = len(s.servo)
+    if s.chosen is None:
+        return f"No motor of the catalogue covers {s.share:.0%} of the {n} variants in the loop."
+    row = s.loop.set_index("motor").loc[s.chosen]
+    c = s.catalogue[s.chosen].resolved()
+    return (
+        f"{s.chosen}: its gearhead {c['N']:g}:1 (efficiency {c['eta']:g}) covers {row['coverage']:.1%} of the "
+        f"{n - int(row['not_simulated'])} variants simulated in the loop (asked: {s.share:.0%}), "
+        f"{float(s.screen.set_index('motor').loc[s.chosen, 'coverage']):.1%} in the screen."
+    )
+
+
+def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
+    """The page as (heading, kind, content): kind 'text', 'table' (a DataFrame), 'figure' (a path), 'code'."""
+    reasons = "; ".join(f"{k.replace('_', ' ')}: {v}" for k, v in IN_LOOP_TEXT.items())
+    screen = "; ".join(f"{k.replace('_', ' ')}: {v}" for k, v in REASON_TEXT.items())
+    out: list[tuple[str, str, Any]] = [
+        ("", "text", headline(s)),
+        (
+            "",
+            "text",
+            f"{len(s.servo)} variants of `{s.name}` over {', '.join(s.params)}. Steering on {s.steer}. The screen "
+            "checks every motor against the ideal servo's demand; the loop runs the candidates, smallest first, as "
+            "DC motors driven by batchveh's drive, from the hot steady state of back-to-back runs.",
+        ),
+        ("Verdict", "table", verdict_table(s)),
+        ("", "text", f"Screen misses: {screen}. Loop misses: {reasons}. Not simulated: a run that failed its own "
+                     "physics checks or diverged; it says nothing of the motor and is never counted against it."),
+    ]  # fmt: skip
+    for title, path in figs.items():
+        out.append((title, "figure", path))
+    out.append(("Catalogue entries", "table", catalogue_table(s)))
+    out.append(("Inputs", "code", s.spec_text))
+    meta = {**s.versions, **{f"wall {k} (s)": f"{v:.1f}" for k, v in s.wall_s.items()}}
+    out.append(("", "text", "; ".join(f"{k}: {v}" for k, v in meta.items())))
+    return out
+
+
+def markdown(s: Sizing, figs: dict[str, str]) -> str:
+    lines = [f"# Motor sizing: {s.name}", ""]
+    for head, kind, content in sections(s, figs):
+        if head:
+            lines += [f"## {head}", ""]
+        if kind == "text":
+            lines += [content, ""]
+        elif kind == "table":
+            lines += [_md_table(content), ""]
+        elif kind == "figure":
+            lines += [f"![{head}]({content})", ""]
+        else:
+            lines += ["```yaml", content.rstrip(), "```", ""]
+    return "\n".join(lines)
+
+
+def page(s: Sizing, figs: dict[str, str]) -> str:
+    """A static HTML page, the figures beside it (figures/)."""
+    body = [f"<h1>Motor sizing: {html.escape(s.name)}</h1>"]
+    for head, kind, content in sections(s, figs):
+        if head:
+            body.append(f"<h2>{html.escape(head)}</h2>")
+        if kind == "text":
+            body.append(f"<p>{html.escape(content)}</p>")
+        elif kind == "table":
+            body.append(content.to_html(index=False, border=0, classes="t"))
+        elif kind == "figure":
+            body.append(f'<p><img src="{html.escape(content)}" alt="{html.escape(head)}" style="max-width:100%"></p>')
+        else:
+            body.append(f"<pre>{html.escape(content)}</pre>")
+    style = ("body{font-family:sans-serif;max-width:70em;margin:2em auto;padding:0 1em}"
+             "table.t{border-collapse:collapse;font-size:85%}table.t td,table.t th{border:1px solid #ccc;"
+             "padding:2px 6px;text-align:left}pre{background:#f6f6f6;padding:1em;overflow:auto}")  # fmt: skip
+    return (
+        f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>Motor sizing: '
+        f"{html.escape(s.name)}</title><style>{style}</style></head><body>\n" + "\n".join(body) + "\n</body></html>\n"
+    )
+
+
+def write(folder: str | Path, s: Sizing) -> dict[str, Path]:
+    """report.md, report.html, figures/*.png, verdicts.parquet and sizing.json under `folder`; their paths."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    figs = figures(folder, s)
+    paths = {"markdown": folder / "report.md", "html": folder / "report.html", "verdicts": folder / "verdicts.parquet",
+             "summary": folder / "sizing.json"}  # fmt: skip
+    paths["markdown"].write_text(markdown(s, figs))
+    paths["html"].write_text(page(s, figs))
+    verdicts(s).to_parquet(paths["verdicts"], index=False)
+    summary = {"chosen": s.chosen, "steer": s.steer, "share": s.share, "variants": len(s.servo),
+               "screen": s.screen.to_dict(orient="records"), "loop": s.loop.to_dict(orient="records"),
+               "worst": s.worst, "versions": s.versions, "wall_s": s.wall_s,
+               "figures": figs}  # fmt: skip
+    paths["summary"].write_text(json.dumps(summary, indent=1, default=str) + "\n")
+    return paths

@@ -1,0 +1,314 @@
+"""Size the drive motors of a sweep in one command: from a vehicle spec and a motor catalogue to the motor to buy.
+
+    python -m batchveh.size sweeps/delivery_robot.yaml --catalogue notebooks/motors.yaml
+    python -m batchveh.size sweeps/slope.yaml --catalogue notebooks/motors.yaml --limit 500 --share 0.99 --out S
+    python -m batchveh.size sweeps/slope.yaml --catalogue notebooks/motors.yaml --dry-run
+
+Three phases, one progress bar:
+1. the sweep with the ideal servo (the demand), in OUT/servo: reused where it is there and was made from the
+   same spec (the sweep's resume), else run;
+2. the screen: every catalogue motor against that demand (`batchveh.analysis.motors.screen`), for the drives
+   and, unless --steer names one, for the steering;
+3. in the loop (`in_loop`): the screen's choice and the next smaller motor, then larger ones, smallest first, as
+   DC motors driven by batchveh's drive, from the hot steady state of back-to-back runs, until one covers
+   --share of the variants it could simulate.
+It ends with one line: the chosen motor and gearhead, its coverage, and where the report is (OUT/report.html,
+report.md, figures/, verdicts.parquet: batchveh/analysis/report.py).
+
+Exit codes: 0 done (a motor chosen, or none covers: the report says why), 2 bad spec, catalogue, argument or file
+(one line), 3 a report exists in OUT (give --overwrite), 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from batchveh.config import ConfigError, OneLineParser
+
+EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_INTERRUPTED = 0, 2, 3, 130
+HOT_RUNS = 3  # in_loop's runs per candidate: from ambient, then twice from the hot start (its `iterations` 2)
+
+
+def servo_spec(spec: Any, out: Path) -> Any:
+    """The spec with the ideal servo (the demand) writing to out/servo."""
+    motors = dataclasses.replace(spec.vehicle.motors, model="servo")
+    return dataclasses.replace(
+        spec, vehicle=dataclasses.replace(spec.vehicle, motors=motors), output=str(out / "servo")
+    )
+
+
+def catalogue_of(path: str) -> dict[str, Any]:
+    """The catalogue's motors (one ConfigError line for a missing file, a bad entry or none at all)."""
+    from batchveh.model.motors import load_catalogue
+
+    if not Path(path).is_file():
+        raise ConfigError(
+            f"--catalogue: {path}: file not found; allowed: a motor catalogue YAML (notebooks/motors.yaml)"
+        )
+    cat = load_catalogue(path)
+    if not cat:
+        raise ConfigError(f"--catalogue: {path}: motors: no motor; allowed: a list of datasheet motors under motors:")
+    return cat
+
+
+def battery_of(path: str) -> Any:
+    """The catalogue's battery, or None where it has none."""
+    from batchveh.analysis.motors import load_battery
+
+    try:
+        return load_battery(path)
+    except ConfigError:
+        return None
+
+
+def wheel_accel(spec: Any, df: Any) -> Any:
+    """Each variant's imposed wheel acceleration over its speed ramp (rad/s^2), for the screen's rotor inertia:
+    speed / (radius x ramp time), where the scenario has both; else 0."""
+    import numpy as np
+
+    sc = spec.scenario
+    if not hasattr(sc, "speed_kmh") or not getattr(sc, "ramp_time", 0):
+        return 0.0
+
+    def col(name: str, default: float) -> Any:
+        return df[name].to_numpy(float) if name in df else np.full(len(df), default)
+
+    ramp = np.maximum(col("ramp_time", sc.ramp_time), 1e-9)
+    return col("speed_kmh", sc.speed_kmh) / 3.6 / col("wheel.radius", spec.vehicle.wheel.radius) / ramp
+
+
+def candidates(screen_table: Any, best: str | None) -> list[str]:
+    """The motors to run in the loop, smallest first: from the one next below the screen's choice (the screen is
+    conservative: the loop may take it) upwards; without a screen choice, the largest alone."""
+    ranked = list(screen_table["motor"])
+    if best is None:
+        return ranked[-1:]
+    return ranked[max(ranked.index(best) - 1, 0) :]
+
+
+def trace(spec: Any, catalogue: str, drive: str, steer: str, values: dict[str, float], rise: float) -> Any:
+    """One variant's time series on MuJoCo C with `drive` and `steer` as DC motors, its drive windings started
+    `rise` above ambient: each drive's winding temperature, and the bus power (W, the 8 motors) and energy (Wh)."""
+    import numpy as np
+    import pandas as pd
+
+    from batchveh.model.params import variant_setup
+    from batchveh.model.vehicle import layout
+    from batchveh.stepping.batch import make_batch
+    from batchveh.stepping.rollout import mujoco_steps
+
+    motors = dataclasses.replace(
+        spec.vehicle.motors, model="dcmotor", catalogue=str(catalogue), drive=drive, steer=steer, drive_start_rise=rise
+    )
+    vehicle, scenario = variant_setup(dataclasses.replace(spec.vehicle, motors=motors), spec.scenario, values)
+    b = make_batch(vehicle, scenario, {})
+    m, lay = b.model, layout(b.model)
+    p = {k: float(v[0]) if np.ndim(v) == 1 else np.asarray(v[0]) for k, v in b.params.items()}
+    k_eta = p["_dc.K"] * p["_dc.eta"]
+    rec: dict[str, Any] = {}
+    rows = []
+    for i, (d, ctrl) in enumerate(mujoco_steps(m, p, scenario=scenario, n_steps=scenario.n_steps, record=rec)):
+        if ctrl is None:
+            continue
+        current = d.actuator_force[lay.motor_act] / k_eta
+        rows.append([i * m.opt.timestep, *rec["T"][:4], float(np.sum(rec["v"] * current))])
+    t = pd.DataFrame(
+        rows, columns=["time", *(f"drive_{c}_winding_temp" for c in ("lf", "rf", "lr", "rr")), "bus_power"]
+    )
+    t["bus_energy_wh"] = np.cumsum(t["bus_power"]) * m.opt.timestep / 3600.0
+    return t
+
+
+def size(args: Any) -> tuple[Any, dict[str, Path]]:
+    """The three phases and the report (the module's docstring); returns (the Sizing, the report's paths)."""
+    import platform
+
+    import mujoco
+    import numpy as np
+    from tqdm.auto import tqdm
+
+    import batchveh
+    from batchveh.analysis import report
+    from batchveh.analysis.motors import in_loop, screen
+    from batchveh.model.motors import pick
+    from batchveh.sweep import count_variants, run_sweep
+    from batchveh.sweeping.results import load
+    from batchveh.sweeping.spec import load_spec
+
+    spec = load_spec(args.spec)
+    cat = catalogue_of(args.catalogue)
+    if args.steer is not None:
+        pick(cat, args.steer, "--steer")
+    if not 0 < args.share <= 1:
+        raise ConfigError(f"--share: {args.share!r} is not allowed; allowed: 0 < share <= 1")
+    out = Path(args.out or f"{spec.output}-sizing")
+    if (out / "report.md").exists() and not args.overwrite:
+        raise FileExistsError(f"{out} holds a report; give --overwrite to replace it (its servo sweep is reused)")
+    demand = servo_spec(spec, out)
+    n = count_variants(demand, args.limit)
+    bar = tqdm(total=n * (1 + HOT_RUNS * 2), unit="run", disable=args.quiet, desc=f"{spec.name}: servo sweep")
+    walls: dict[str, float] = {}
+    t0 = time.perf_counter()
+    try:
+        run_sweep(demand, out=out / "servo", backend=args.backend, resume=True, limit=args.limit, progress=False)
+    except ConfigError as err:
+        raise ConfigError(
+            f"{err} (the servo sweep's results in {out / 'servo'}: remove them or give another --out)"
+        ) from None
+    df = load(out / "servo")
+    walls["servo sweep"] = time.perf_counter() - t0
+    bar.update(n)
+    bar.set_description(f"{spec.name}: screen")
+    t0 = time.perf_counter()
+    accel = wheel_accel(spec, df)
+    armature = spec.vehicle.motors.armature
+    best, table, _ = screen(df, cat, share=args.share, armature=armature, accel=accel, params=list(spec.params))
+    steer = args.steer
+    if steer is None:
+        steer, steer_table, _ = screen(df, cat, share=args.share, group="steer", params=list(spec.params))
+        steer = steer or steer_table["motor"].iloc[-1]
+    walls["screen"] = time.perf_counter() - t0
+    runs = candidates(table, best)
+    bar.total = n * (1 + HOT_RUNS * len(runs))
+    rows, detail, chosen = [], {}, None
+    t0 = time.perf_counter()
+    for name in runs:
+        bar.set_description(f"{spec.name}: in the loop, {name}")
+        bar.refresh()
+        got, t, d = in_loop(spec, df, args.catalogue, [name], steer=steer, share=args.share, backend=args.backend)
+        rows.append(t)
+        detail.update(d)
+        bar.update(n * HOT_RUNS)
+        if got is not None:
+            chosen = got
+            break
+    bar.total = bar.n
+    bar.set_description(f"{spec.name}: report")
+    bar.refresh()
+    walls["in the loop"] = time.perf_counter() - t0
+    import pandas as pd
+
+    loop = pd.concat(rows, ignore_index=True)
+    hottest = chosen or runs[-1]
+    d = detail[hottest]
+    temps = d[[f"drive_{c}_winding_temp_peak" for c in ("lf", "rf", "lr", "rr")]].max(axis=1).to_numpy()
+    worst = int(np.argmax(temps))
+    values = {k: float(df[k].iloc[worst]) for k in spec.params if np.issubdtype(df[k].dtype, np.number)}
+    # its own hot start: back to back, a run ends where it started (in_loop's last run, within its residual)
+    ends = d[[f"drive_{c}_winding_temp_end" for c in ("lf", "rf", "lr", "rr")]].max(axis=1).to_numpy()
+    rise = max(float(ends[worst]) - cat[hottest].resolved()["T_amb"], 0.0)
+    t0 = time.perf_counter()
+    series = trace(spec, args.catalogue, hottest, steer, values, rise)
+    walls["trace"] = time.perf_counter() - t0
+    s = report.Sizing(
+        name=spec.name,
+        spec_text=Path(args.spec).read_text(),
+        params=list(spec.params),
+        servo=df,
+        screen=table,
+        loop=loop,
+        detail=detail,
+        chosen=chosen,
+        steer=steer,
+        share=args.share,
+        catalogue=cat,
+        battery=battery_of(args.catalogue),
+        trace=series,
+        worst=values,
+        versions={
+            "batchveh": batchveh.__version__,
+            "MuJoCo": mujoco.__version__,
+            "Python": platform.python_version(),
+            "machine": f"{platform.machine()}, {__import__('os').cpu_count()} CPUs",
+            "date": time.strftime("%Y-%m-%d %H:%M"),
+        },
+        wall_s=walls,
+    )
+    paths = report.write(out, s)
+    bar.close()
+    return s, paths
+
+
+def verdict_line(s: Any, paths: dict[str, Path]) -> str:
+    """The command's last line: the choice, its coverage, the report."""
+    if s.chosen is None:
+        return f"no motor of the catalogue covers {s.share:.0%} in the loop; report: {paths['html']}"
+    row = s.loop.set_index("motor").loc[s.chosen]
+    c = s.catalogue[s.chosen].resolved()
+    lost = f", {int(row['not_simulated'])} variants not simulated" if row["not_simulated"] else ""
+    return (
+        f"chosen: {s.chosen} (gearhead {c['N']:g}:1), covers {row['coverage']:.1%} in the loop "
+        f"(screen {float(s.screen.set_index('motor').loc[s.chosen, 'coverage']):.1%}){lost}; steering {s.steer}; "
+        f"report: {paths['html']}"
+    )
+
+
+def dry_run(args: Any) -> str:
+    """The work the command would do, estimated, without simulating."""
+    from batchveh.engines import resolve_backend
+    from batchveh.sweep import count_variants, estimate
+    from batchveh.sweeping.spec import load_spec
+
+    spec = load_spec(args.spec)
+    cat = catalogue_of(args.catalogue)
+    n = count_variants(spec, args.limit)
+    backend = resolve_backend(args.backend or spec.backend)
+    seconds, basis = estimate(backend, n * spec.scenario.n_steps, spec.vehicle.tyre.model, 0, n)
+    loop = seconds * HOT_RUNS
+    return (
+        f"{spec.name}: the servo sweep, {n:,} variants ({seconds:.0f} s, {basis}); the screen of {len(cat)} motors; "
+        f"then each candidate in the loop, {HOT_RUNS} runs, about {loop:.0f} s (two to all {len(cat)}: "
+        f"{2 * loop:.0f}-{len(cat) * loop:.0f} s); report in {args.out or f'{spec.output}-sizing'}"
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = OneLineParser(
+        prog="python -m batchveh.size",
+        description=__doc__.split("\n\n")[0],
+        epilog="Exit codes: 0 done, 2 bad spec, catalogue, argument or file, 3 a report exists (--overwrite), "
+        "130 interrupted. The report: docs/motors.md, 'Sizing in one command'.",
+    )
+    parser.add_argument("spec", help="sweep YAML: the vehicle and the conditions to cover, e.g. sweeps/slope.yaml")
+    parser.add_argument("--catalogue", required=True, help="motor catalogue YAML, e.g. notebooks/motors.yaml")
+    parser.add_argument("--share", type=float, default=0.99, help="share of the variants to cover (default 0.99)")
+    parser.add_argument("--out", help="the sizing's folder (default: the spec's output + '-sizing')")
+    parser.add_argument("--steer", help="the steering motor's catalogue name (default: the screen's choice)")
+    parser.add_argument("--backend", choices=("auto", "mujoco", "warp"), help="as batchveh.sweep's")
+    parser.add_argument("--limit", type=int, help="the first N variants only")
+    parser.add_argument("--overwrite", action="store_true", help="replace a report in --out")
+    parser.add_argument("--dry-run", action="store_true", help="estimate the whole run, then stop")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    args = parser.parse_args(argv)
+    if args.limit is not None and args.limit < 1:
+        parser.error(f"--limit: {args.limit!r} is not allowed; allowed: an integer >= 1")
+    try:
+        if args.dry_run:
+            print(dry_run(args))
+            return EXIT_OK
+        from batchveh.sweep import enable_compile_cache
+
+        enable_compile_cache()
+        s, paths = size(args)
+    except ConfigError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return EXIT_INPUT
+    except FileExistsError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return EXIT_EXISTS
+    except OSError as err:
+        print(f"error: {err.filename or args.spec}: {err.strerror or err}", file=sys.stderr)
+        return EXIT_INPUT
+    except KeyboardInterrupt:
+        print("\ninterrupted: the servo sweep's finished chunks are kept; run again to reuse them", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    print(verdict_line(s, paths))
+    return EXIT_OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

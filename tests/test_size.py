@@ -1,0 +1,138 @@
+"""`python -m batchveh.size`: sizing in one command (issue 45) on MuJoCo C, small.
+
+The command's choice equals what `screen` and `in_loop` give when called by hand on the same rows; its report's
+HTML is well-formed and every figure it names exists; bad input is one line and exit 2."""
+
+import json
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from batchveh.size import EXIT_EXISTS, EXIT_INPUT, EXIT_OK, candidates, main
+
+ROOT = Path(__file__).resolve().parent.parent
+SPEC = ROOT / "sweeps" / "delivery_robot.yaml"
+CATALOGUE = ROOT / "notebooks" / "motors.yaml"
+LIMIT = 12  # variants: the first of the robot's LHS
+
+
+class _Balanced(HTMLParser):
+    """Counts unclosed and mismatched tags (void elements aside) and collects <img src>."""
+
+    VOID = {"meta", "img", "br", "hr", "link", "input"}
+
+    def __init__(self):
+        super().__init__()
+        self.stack, self.errors, self.images = [], [], []
+
+    def handle_starttag(self, tag, attrs):
+        if tag == "img":
+            self.images.append(dict(attrs)["src"])
+        if tag not in self.VOID:
+            self.stack.append(tag)
+
+    def handle_endtag(self, tag):
+        if not self.stack or self.stack[-1] != tag:
+            self.errors.append(tag)
+        else:
+            self.stack.pop()
+
+
+@pytest.fixture(scope="module")
+def sized(tmp_path_factory):
+    out = tmp_path_factory.mktemp("size") / "robot"
+    args = [str(SPEC), "--catalogue", str(CATALOGUE), "--limit", str(LIMIT), "--out", str(out), "--quiet"]
+    return out, args, main(args)
+
+
+def test_the_command_chooses_and_writes_its_report(sized, capsys):
+    out, args, rc = sized
+    assert rc == EXIT_OK
+    html = (out / "report.html").read_text()
+    parser = _Balanced()
+    parser.feed(html)
+    assert parser.errors == [] and parser.stack == [], (parser.errors, parser.stack)
+    assert len(parser.images) == 3  # the torque-speed plane, the misses, the hottest variant
+    for src in parser.images:
+        assert (out / src).is_file() and (out / src).stat().st_size > 10_000, src
+    md = (out / "report.md").read_text()
+    for src in parser.images:
+        assert f"]({src})" in md
+    summary = json.loads((out / "sizing.json").read_text())
+    assert summary["variants"] == LIMIT and summary["chosen"] in md and "## Verdict" in md
+    verdicts = pd.read_parquet(out / "verdicts.parquet")
+    assert set(verdicts["motor"]) == {row["motor"] for row in summary["loop"]}
+    assert (verdicts.groupby("motor").size() == LIMIT).all()
+    chosen = verdicts[verdicts["motor"] == summary["chosen"]]
+    coverage = next(r["coverage"] for r in summary["loop"] if r["motor"] == summary["chosen"])
+    assert chosen["fits"].sum() / chosen["simulated"].sum() == pytest.approx(coverage)
+    assert main(args) == EXIT_EXISTS  # a report there: not replaced without --overwrite
+    assert "give --overwrite" in capsys.readouterr().err
+
+
+def test_the_choice_is_what_screen_and_in_loop_give_by_hand(sized):
+    """The same rows (the servo sweep the command ran), the same calls by hand."""
+    import batchveh
+    from batchveh.analysis.motors import in_loop, screen
+    from batchveh.model.motors import load_catalogue
+    from batchveh.size import wheel_accel
+
+    out, _, _ = sized
+    summary = json.loads((out / "sizing.json").read_text())
+    spec = batchveh.load_spec(SPEC)
+    df = batchveh.load(out / "servo")
+    cat = load_catalogue(CATALOGUE)
+    best, table, _ = screen(df, cat, share=0.99, armature=spec.vehicle.motors.armature, accel=wheel_accel(spec, df))
+    assert [r["coverage"] for r in summary["screen"]] == list(table["coverage"])
+    chosen = None
+    for name in candidates(table, best):
+        got, _, _ = in_loop(spec, df, CATALOGUE, [name], steer=summary["steer"], share=0.99)
+        if got is not None:
+            chosen = got
+            break
+    assert chosen == summary["chosen"] and chosen is not None
+
+
+@pytest.mark.parametrize(
+    "extra, words",
+    [
+        (["--steer", "maxon-EC45"], "--steer: 'maxon-EC45' is not in the catalogue"),
+        (["--share", "1.5"], "--share: 1.5 is not allowed"),
+    ],
+)
+def test_bad_arguments_are_one_line(tmp_path, capsys, extra, words):
+    rc = main([str(SPEC), "--catalogue", str(CATALOGUE), "--out", str(tmp_path / "o"), "--quiet", *extra])
+    err = capsys.readouterr().err.strip()
+    assert rc == EXIT_INPUT and words in err and "\n" not in err and "Traceback" not in err
+
+
+def test_a_missing_or_empty_catalogue_is_one_line(tmp_path, capsys):
+    rc = main([str(SPEC), "--catalogue", str(tmp_path / "none.yaml"), "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert rc == EXIT_INPUT and "none.yaml: file not found" in err and "\n" not in err
+    empty = tmp_path / "empty.yaml"
+    empty.write_text("motors: []\n")
+    rc = main([str(SPEC), "--catalogue", str(empty), "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert rc == EXIT_INPUT and "motors: no motor" in err and "\n" not in err
+    spec = tmp_path / "bad.yaml"
+    spec.write_text(SPEC.read_text().replace("payload.mass:", "payload.mas:"))
+    rc = main([str(spec), "--catalogue", str(CATALOGUE), "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert rc == EXIT_INPUT and "payload.mas" in err and "\n" not in err
+
+
+def test_the_dry_run_estimates_every_phase(capsys):
+    assert main([str(SPEC), "--catalogue", str(CATALOGUE), "--dry-run"]) == EXIT_OK
+    line = capsys.readouterr().out.strip()
+    assert "400 variants" in line and "the screen of 8 motors" in line and "in the loop" in line
+
+
+def test_the_loop_starts_below_the_screens_choice():
+    table = pd.DataFrame({"motor": ["a", "b", "c", "d"], "coverage": np.array([0.2, 0.5, 0.99, 1.0])})
+    assert candidates(table, "c") == ["b", "c", "d"]
+    assert candidates(table, "a") == ["a", "b", "c", "d"]
+    assert candidates(table, None) == ["d"]
