@@ -1,10 +1,18 @@
 """batchveh: batch simulation of a four-wheeled vehicle for motor sizing.
 
-Public API: the vehicle and scenario definitions, single runs, sweeps and results.
-Each name is imported from its module on first use (`simulate` and `run_sweep` from
+Public API: the vehicle and scenario definitions, single runs, sweeps and results, and motor sizing's
+loaders. Each name is imported from its module on first use (`simulate` and `run_sweep` from
 the CLI modules `batchveh.run` and `batchveh.sweep`), so `python -m batchveh.run`
 and `python -m batchveh.sweep` start cleanly and quickly. `batchveh.sensitivity(result, ...)`
 is the module `batchveh.sensitivity` (its CLI), which calls its function of that name.
+
+The loaders:
+- `load_spec(path)` -> SweepSpec, a validated sweep (run it with `run_sweep`, its variants: `variant_table`);
+- `load_catalogue(path)` -> {name: DCMotor}, the `motors:` list of a motor catalogue (notebooks/motors.yaml);
+- `load_battery(path)` -> Battery, that catalogue's `battery:` section;
+- `load_scenario(name_or_path)` -> Scenario, `load_vehicle(path)` -> Vehicle;
+and `load(folder)` -> DataFrame, a sweep's results, one row per variant. Motor sizing itself is
+`batchveh.analysis.motors` (`screen`, `in_loop`).
 """
 
 __version__ = "0.1.0"
@@ -52,6 +60,8 @@ _LAZY = {
     "MOTORS": "batchveh.model.vehicle",
     "Vehicle": "batchveh.model.vehicle",
     "load_vehicle": "batchveh.model.vehicle",
+    "load_catalogue": "batchveh.model.motors",
+    "load_battery": "batchveh.analysis.motors",
     "ResultError": "batchveh.sweeping.results",
     "load": "batchveh.sweeping.results",
     "metadata": "batchveh.sweeping.results",
@@ -73,6 +83,8 @@ __all__ = [
     "SweepSpec",
     "Vehicle",
     "load",
+    "load_battery",
+    "load_catalogue",
     "load_scenario",
     "load_spec",
     "load_vehicle",

@@ -10,11 +10,9 @@ import sys
 import jax
 import jax.numpy as jnp
 import numpy as np
-import pandas as pd
 import pytest
 from conftest import SLOPE_SUM_RTOL, slope_torque
 
-from batchveh.analysis.motors import Motor, check_mission, smallest
 from batchveh.engines.mjx import MjxEngine
 from batchveh.engines.mujoco import MujocoEngine
 from batchveh.model.missions import mission_controls, mission_slope
@@ -468,54 +466,6 @@ def test_example_mission_sweep_writes_units_and_spans(tmp_path):
     assert u["seg7_turn_steer_lf_speed_peak"] == "rad/s" and u["seg1_cruise_distance"] == "m"
     spans = metadata(tmp_path / "m")["mission_spans_s"]
     assert spans["mission"] == pytest.approx([0.0, 25.1]) and spans["seg1_cruise"] == pytest.approx([2.0, 5.6])
-
-
-def _mission_frame(span, rms, peak, speed):
-    cols = {}
-    for m in ("drive_lf", "drive_rf", "drive_lr", "drive_rr"):
-        cols[f"{span}_{m}_rms"] = rms
-        cols[f"{span}_{m}_peak_lp"] = peak
-        cols[f"{span}_{m}_speed_peak"] = speed
-    return pd.DataFrame(cols)
-
-
-def test_mission_motor_check_at_wheel_and_motor_by_hand():
-    motor = Motor(
-        continuous_torque=1.0, peak_torque=3.0, corner_speed=200, max_speed=400, gear_ratio=10, efficiency=0.8
-    )
-    # through the gearbox a wheel sees 8 N m per shaft N m: rated 8 N m continuous, 24 N m peak.
-    # rows: wheel rms 6 / 9 / 6 N m (shaft 0.75 / 1.125 / 0.75), wheel peak 20 / 20 / 20 N m (shaft
-    # 2.5), peak wheel speed 10 / 10 / 30 rad/s (shaft 100 / 100 / 300 rad/s: at 300 the limit is
-    # 3 * 200 / 300 = 2 N m at the shaft, 16 N m at the wheel)
-    df = _mission_frame("seg3_climb", [6.0, 9.0, 6.0], [20.0, 20.0, 20.0], [10.0, 10.0, 30.0])
-    c = check_mission(df, motor, span="seg3_climb")
-    np.testing.assert_allclose(c.wheel_rms, [6.0, 9.0, 6.0])
-    np.testing.assert_allclose(c.shaft_rms, [0.75, 1.125, 0.75])
-    np.testing.assert_allclose(c.shaft_peak, [2.5, 2.5, 2.5])
-    np.testing.assert_allclose(c.shaft_speed_peak, [100.0, 100.0, 300.0])
-    np.testing.assert_allclose(c.wheel_continuous_rating, 8.0)
-    np.testing.assert_allclose(c.wheel_peak_limit, [24.0, 24.0, 16.0])
-    np.testing.assert_allclose(c.wheel_max_speed, 40.0)
-    assert list(c.fits_continuous) == [True, False, True]
-    assert list(c.fits_peak) == [True, True, False]
-    assert list(c.fits) == [True, False, False]
-    with pytest.raises(Exception, match="span: 'mission' has no column mission_drive_lf_rms"):
-        check_mission(df, motor)
-
-
-def test_smallest_motor_over_a_mission_span():
-    # shaft values with gear 10, efficiency 1: rms 0.4 and 0.8 N m, low-pass peaks 1.0 and 1.6 N m,
-    # peak speeds 100 and 120 rad/s (below every corner speed)
-    df = _mission_frame("mission", [4.0, 8.0], [10.0, 16.0], [10.0, 12.0])
-    small = Motor(name="S", continuous_torque=0.5, peak_torque=1.5, gear_ratio=10, efficiency=1.0)  # rms 0.8 > 0.5
-    mid = Motor(name="M", continuous_torque=1.0, peak_torque=2.0, gear_ratio=10, efficiency=1.0)  # fits both rows
-    big = Motor(name="L", continuous_torque=2.0, peak_torque=6.0, gear_ratio=10, efficiency=1.0)
-    best, summary = smallest(df, [big, small, mid], span="mission")
-    assert best.name == "M"
-    assert list(summary.fits_all) == [False, True, True]
-    assert summary.loc[0, "continuous_fails"] == 1 and summary.loc[0, "peak_fails"] == 1  # 1.6 > 1.5
-    with pytest.raises(Exception, match="span: 'seg0_cruise' has no column"):
-        smallest(df, [mid], span="seg0_cruise")
 
 
 _COLUMN = re.compile(r"^(?:mission|seg\d+_\w+?)_(?P<kind>drive|steer)_(?:lf|rf|lr|rr|sum)_(?P<stat>\w+)$")

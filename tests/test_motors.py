@@ -1,71 +1,23 @@
-"""Motor sizing against hand-computed values."""
+"""Motor sizing against hand-computed values: one API (batchveh.analysis.motors.screen, in_loop) over one
+catalogue format (notebooks/motors.yaml's, batchveh.load_catalogue) and its battery (batchveh.load_battery)."""
+
+import re
 
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 
-from batchveh.analysis.motors import Motor, check, load_motors, smallest
+import batchveh
+from batchveh.analysis import motors
+from batchveh.analysis.motors import REASONS, demand, screen, screen_one
 from batchveh.config import ConfigError
+from batchveh.model.motors import DCMotor
 
-
-def _frame(rms, peak, wheel_speed):
-    cols = {"wheel_speed": wheel_speed}
-    for w in ("drive_lf", "drive_rf", "drive_lr", "drive_rr"):
-        cols[f"{w}_rms"] = rms
-        cols[f"{w}_peak_lp_all"] = peak
-    return pd.DataFrame(cols)
-
-
-def test_torque_limit_is_flat_then_constant_power():
-    m = Motor(peak_torque=4.0, corner_speed=100.0, max_speed=300.0)
-    np.testing.assert_allclose(m.torque_limit([0, 100, 200, 300, 301]), [4, 4, 2, 4 / 3, 0])
-
-
-def test_check_by_hand():
-    m = Motor(continuous_torque=1.0, peak_torque=3.0, corner_speed=200, max_speed=400, gear_ratio=10, efficiency=0.5)
-    # wheel rms 4 N m -> shaft 4 / (10 * 0.5) = 0.8 <= 1; peak 10 -> 2.0 <= 3 at 100 rad/s (wheel 10 rad/s)
-    c = check(_frame([4.0, 6.0, 4.0, 4.0], [10.0, 10.0, 20.0, 10.0], [10.0, 10.0, 10.0, 50.0]), m)
-    assert list(c.fits_continuous) == [True, False, True, True]
-    assert list(c.fits_peak) == [True, True, False, False]  # 4.0 > 3; at 500 rad/s the limit is 0
-    assert list(c.fits_speed) == [True, True, True, False]
-    assert list(c.fits) == [True, False, False, False]
-    np.testing.assert_allclose(c.shaft_rms, [0.8, 1.2, 0.8, 0.8])
-
-
-def test_smallest_motor_covering_the_envelope():
-    # shaft values with gear 10, efficiency 1: rms 0.4 and 0.8 N m, peaks 1.0 and 1.6 N m,
-    # speeds 100 and 120 rad/s (below every corner speed)
-    df = _frame([4.0, 8.0], [10.0, 16.0], [10.0, 12.0])
-    small = Motor(name="S", continuous_torque=0.5, peak_torque=1.5, gear_ratio=10, efficiency=1.0)  # rms 0.8 > 0.5
-    mid = Motor(name="M", continuous_torque=1.0, peak_torque=2.0, gear_ratio=10, efficiency=1.0)  # fits both rows
-    big = Motor(name="L", continuous_torque=2.0, peak_torque=6.0, gear_ratio=10, efficiency=1.0)  # fits, larger
-    best, summary = smallest(df, [big, small, mid])
-    assert best.name == "M"
-    assert list(summary.motor) == ["S", "M", "L"]
-    assert list(summary.fits_all) == [False, True, True]
-    assert summary.loc[0, "continuous_fails"] == 1 and summary.loc[0, "peak_fails"] == 1  # 1.6 > 1.5
-    assert smallest(df, [small])[0] is None
-
-
-def test_motor_yaml(tmp_path):
-    p = tmp_path / "m.yaml"
-    p.write_text("motors:\n  - {name: A, continuous_torque: 1, peak_torque: 3, gear_ratio: 20}\n")
-    assert load_motors(p)[0].gear_ratio == 20
-    p.write_text("motors:\n  - {name: A, continuous_torque: 2, peak_torque: 1}\n")
-    with pytest.raises(ConfigError, match="peak_torque.*below continuous_torque"):
-        load_motors(p)
-    p.write_text("motors:\n  - {name: A, torque: 2}\n")
-    with pytest.raises(ConfigError, match="unknown key 'torque'"):
-        load_motors(p)
-
-
-# --- the fast screen of DC motors (batchveh.analysis.motors.screen) against hand-computed limits ---
-
-from batchveh.analysis.motors import REASONS, screen, screen_one  # noqa: E402
-from batchveh.model.motors import DCMotor  # noqa: E402
+WHEELS = ("drive_lf", "drive_rf", "drive_lr", "drive_rr")
 
 # K 0.05 N m/A, R 1.2 Ohm, 24 V, 4 A continuous, N 20, eta 0.8: at the wheel 0.8 x 20 x 0.05 = 0.8 N m per A;
-# no-load 480 rad/s at the motor (24 rad/s at the wheel); R_T 6 K/W, max 125 deg C
+# no-load 480 rad/s at the motor (24 rad/s at the wheel); R_T 6 K/W, max 125 deg C; J N^2 = 1e-5 x 400 = 4e-3
 DC = DCMotor(
     "dc-test",
     nominal_voltage=24.0,
@@ -86,9 +38,41 @@ DC = DCMotor(
 
 def _frame(rms, peak, speed):
     cols = {"wheel_speed": speed, "slope_deg": np.arange(len(rms), dtype=float)}
-    for w in ("drive_lf", "drive_rf", "drive_lr", "drive_rr"):
+    for w in WHEELS:
         cols[f"{w}_rms"], cols[f"{w}_peak_lp_all"] = rms, peak
     return pd.DataFrame({k: np.asarray(v, float) for k, v in cols.items()})
+
+
+def _plain(name, i_max, resistance):
+    """No thermal model, 24 V, K 0.1 N m/A, N 10, eta 1: 1 N m at the wheel per A, no-load 24 rad/s at the wheel."""
+    return DCMotor(
+        name,
+        nominal_voltage=24.0,
+        terminal_resistance=resistance,
+        torque_constant=0.1,
+        max_continuous_current=i_max,
+        gear_ratio=10.0,
+        gear_efficiency=1.0,
+    )
+
+
+def test_demand_is_the_worst_of_the_four_drives_at_the_wheel():
+    """|torque| of the worst wheel, each statistic on its own (the RMS of one wheel, the peak of another)."""
+    df = pd.DataFrame(
+        {
+            "wheel_speed": [-3.0, 2.0],
+            "drive_lf_rms": [1.0, -5.0],
+            "drive_rf_rms": [-2.5, 1.0],
+            "drive_lr_rms": [0.5, 0.5],
+            "drive_rr_rms": [0.0, 0.0],
+            "drive_lf_peak_lp_all": [4.0, 1.0],
+            "drive_rf_peak_lp_all": [1.0, 1.0],
+            "drive_lr_peak_lp_all": [-7.0, 1.0],
+            "drive_rr_peak_lp_all": [1.0, 9.0],
+        }
+    )
+    need = demand(df)
+    assert list(need.rms) == [2.5, 5.0] and list(need.peak) == [7.0, 9.0] and list(need.speed) == [3.0, 2.0]
 
 
 def test_screen_names_each_reason_from_closed_forms():
@@ -118,6 +102,29 @@ def test_screen_names_each_reason_from_closed_forms():
     }
     got = {i: {r for r in REASONS if res[r][i]} for i in range(len(df))}
     assert got == expect, got
+    # past the no-load speed: 24.5 rad/s at the wheel = 490 rad/s > 480 (and past the gear's 400)
+    fast = screen_one(pd.DataFrame({"rms": [0.1], "peak": [0.1], "speed": [24.5]}), DC)
+    assert bool(fast.speed[0]) and bool(fast.gear_speed[0])
+
+
+def test_screen_with_share_one_is_the_smallest_motor_that_covers_every_variant():
+    """Three motors, given largest first, ranked by their continuous torque at the wheel eta N K i_max (5, 10,
+    20 N m); at 1 N m per A the rows draw 4 and 8 A RMS, 10 and 16 A peak at 100 and 120 rad/s of motor speed."""
+    df = _frame(rms=[4.0, 8.0], peak=[10.0, 16.0], speed=[10.0, 12.0])
+    small = _plain("S", 5.0, 1.0)  # row 1: 8 A > 5 A, and 16 A x 1 Ohm + 0.1 x 120 = 28 V > 24 V
+    mid = _plain("M", 10.0, 0.5)  # row 1: 16 x 0.5 + 12 = 20 V: fits both rows
+    big = _plain("L", 20.0, 0.5)  # fits too, larger
+    best, table, failing = screen(df, {"L": big, "S": small, "M": mid}, share=1.0)
+    assert best == "M"
+    assert list(table.motor) == ["S", "M", "L"]
+    np.testing.assert_allclose(table.continuous_torque_at_wheel, [5.0, 10.0, 20.0])
+    np.testing.assert_allclose(table.coverage, [0.5, 1.0, 1.0])
+    s = table.set_index("motor").loc["S"]
+    assert (s.fails_rms, s.fails_voltage, s.fails_speed, s.fails_thermal, s.fails_gear_torque) == (1, 1, 0, 0, 0)
+    assert list(failing["S"].slope_deg) == [1.0] and failing["M"].empty and failing["L"].empty
+    assert set(REASONS) <= set(failing["S"].columns)
+    assert screen(df, {"S": small}, share=1.0)[0] is None  # none covers every variant
+    assert screen(df, {"L": big, "S": small}, share=0.5)[0] == "S"  # half the variants: the small one
 
 
 def test_screen_picks_the_smallest_that_covers_the_share_and_lists_the_failures():
@@ -131,3 +138,135 @@ def test_screen_picks_the_smallest_that_covers_the_share_and_lists_the_failures(
     assert list(failing["dc-test"].slope_deg) == [99.0] and failing["dc-big"].empty
     best, _, _ = screen(df, {"dc-test": DC, "dc-big": big}, share=1.0)
     assert best == "dc-big"
+    with pytest.raises(ConfigError, match="share: 0 is not allowed"):
+        screen(df, {"dc-test": DC}, share=0)
+
+
+def _mission_frame(spans: dict) -> pd.DataFrame:
+    cols = {}
+    for span, (rms, peak, speed) in spans.items():
+        for m in WHEELS:
+            cols[f"{span}_{m}_rms"], cols[f"{span}_{m}_peak_lp"], cols[f"{span}_{m}_speed_peak"] = rms, peak, speed
+    return pd.DataFrame({k: np.asarray(v, float) for k, v in cols.items()})
+
+
+def test_a_mission_span_is_screened_on_its_own_rms_peak_and_peak_speed():
+    """span='mission' or a segment's prefix reads <span>_<motor>_rms, _peak_lp and _speed_peak. The climb's
+    second row: 3.3 N m RMS = 4.125 A > 4 A (and 25 + 235 deg C), 4 N m peak = 5 A at 22 rad/s at the wheel =
+    440 rad/s at the motor: 5 x 1.2 + 0.05 x 440 = 28 V > 24 V, and 440 > the gearhead's 400 rad/s input (but
+    under the no-load 480). The whole mission's rows fit."""
+    df = _mission_frame(
+        {"mission": ([2.0, 2.0], [4.0, 4.0], [10.0, 10.0]), "seg3_climb": ([2.0, 3.3], [4.0, 4.0], [10.0, 22.0])}
+    )
+    best, table, failing = screen(df, {"dc-test": DC}, share=1.0, span="mission")
+    assert best == "dc-test" and table.coverage[0] == 1.0
+    best, table, failing = screen(df, {"dc-test": DC}, share=1.0, span="seg3_climb")
+    assert best is None and table.coverage[0] == 0.5
+    bad = failing["dc-test"]
+    assert list(bad.index) == [1]
+    assert {r for r in REASONS if bad.loc[1, r]} == {"rms", "thermal", "voltage", "gear_speed"}
+    need = demand(df, span="seg3_climb")
+    assert list(need.speed) == [10.0, 22.0] and list(need.rms) == [2.0, 3.3]
+
+
+def test_the_rotor_inertia_is_reflected_only_with_accel():
+    """peak + max(J N^2 - armature, 0) |accel| with J N^2 = 4e-3 kg m^2: with accel 500 rad/s^2 and no servo
+    armature, 4 N m becomes 6 N m (7.5 A); with armature 1e-3 simulated already, 5.5 N m (6.875 A); with an
+    armature above J N^2, nothing; with the defaults (0, 0), nothing."""
+    need = pd.DataFrame({"rms": [1.0, 1.0], "peak": [4.0, 4.0], "speed": [0.0, 0.0]})
+    np.testing.assert_allclose(screen_one(need, DC).current_peak, [5.0, 5.0])
+    np.testing.assert_allclose(screen_one(need, DC, accel=500.0).current_peak, [7.5, 7.5])
+    np.testing.assert_allclose(screen_one(need, DC, accel=-500.0).current_peak, [7.5, 7.5])
+    np.testing.assert_allclose(screen_one(need, DC, armature=1e-3, accel=500.0).current_peak, [6.875, 6.875])
+    np.testing.assert_allclose(screen_one(need, DC, armature=0.01, accel=500.0).current_peak, [5.0, 5.0])
+    np.testing.assert_allclose(screen_one(need, DC, accel=np.array([0.0, 500.0])).current_peak, [5.0, 7.5])
+    # through screen: 11 N m + 4e-3 x 500 = 13 N m passes the gearhead's 12 N m intermittent rating
+    df = _frame(rms=[1.0], peak=[11.0], speed=[0.0])
+    assert screen(df, {"dc-test": DC}, share=1.0)[0] == "dc-test"
+    best, table, _ = screen(df, {"dc-test": DC}, share=1.0, accel=500.0)
+    assert best is None and table.fails_gear_torque[0] == 1 and table.fails_voltage[0] == 0
+
+
+def test_the_loaders_are_public_in_one_place():
+    from batchveh.model.motors import load_catalogue
+
+    assert batchveh.load_catalogue is load_catalogue
+    assert batchveh.load_battery is motors.load_battery
+    assert {"load_spec", "load_catalogue", "load_battery"} <= set(batchveh.__all__)
+    for name in ("load_spec", "load_catalogue", "load_battery"):
+        assert "->" in batchveh.__doc__.split(f"`{name}(")[1].split("\n")[0], name  # each with what it returns
+    # one sizing API: the older torque-envelope path is gone
+    for old in ("Motor", "load_motors", "from_dcmotor", "check", "check_mission", "smallest"):
+        assert not hasattr(motors, old), old
+
+
+def test_the_documented_catalogue_format_reads_as_written(tmp_path):
+    """The module docstring's catalogue entry and battery, through the public loaders: K 0.131 N m/A,
+    R 6.89 Ohm, 48 V, 0.936 A, R_T 4.1 + 3.56 = 7.66 K/W, N 40, eta 0.95, the gearhead's ratings; the battery
+    48 V x 20 Ah = 960 Wh, and at 20 A (48 - 20 x 0.3) x 20 = 840 W."""
+    text = re.search(r"```yaml\n(.*?)```", motors.__doc__, re.S).group(1)
+    path = tmp_path / "catalogue.yaml"
+    path.write_text(text)
+    assert yaml.safe_load(text)["motors"][0]["gearhead"]["ratio"] == 40.0
+    catalogue = batchveh.load_catalogue(path)
+    assert list(catalogue) == ["maxon-EC45flat-70W-48V_NPT015-i40"]
+    m = catalogue["maxon-EC45flat-70W-48V_NPT015-i40"]
+    c = m.resolved()
+    assert (c["K"], c["R"], c["V"], c["i_max"], c["N"], c["eta"]) == (0.131, 6.89, 48.0, 0.936, 40.0, 0.95)
+    assert c["R_T"] == pytest.approx(7.66) and c["t_T"] == pytest.approx(29.6) and c["T_max"] == 125.0
+    gear = (m.gear_max_continuous_torque, m.gear_max_intermittent_torque, m.gear_max_input_speed)
+    assert gear == (22.0, 42.0, 1047.2)
+    battery = batchveh.load_battery(path)
+    assert battery.energy_wh == pytest.approx(960.0) and battery.max_power == pytest.approx(840.0)
+
+
+def test_the_loaders_refuse_in_one_line(tmp_path):
+    p = tmp_path / "c.yaml"
+    p.write_text("motors:\n  - {torque_constant: 0.1, terminal_resistance: 1.0, nominal_voltage: 24}\n")
+    with pytest.raises(ConfigError, match=r"motors\[0\]: name: missing"):
+        batchveh.load_catalogue(p)
+    # K 0.2 contradicts the triple's V / no_load_speed = 24 / 240 = 0.1
+    p.write_text(
+        "motors:\n  - {name: A, nominal_voltage: 24, stall_torque: 2.4, no_load_speed: 240, torque_constant: 0.2}\n"
+    )
+    with pytest.raises(ConfigError, match="torque_constant: 0.2 contradicts the datasheet triple"):
+        batchveh.load_catalogue(p)
+    with pytest.raises(ConfigError, match="battery: missing"):
+        batchveh.load_battery(p)
+
+
+def test_in_loop_reads_a_spec_path_and_refuses_a_bad_name_in_one_line(tmp_path):
+    """in_loop's `spec` may be the sweep YAML's path (read with batchveh.load_spec, not an AttributeError);
+    a candidate or steering name not in the catalogue is one ConfigError line, before anything runs."""
+    from pathlib import Path
+
+    catalogue = Path(__file__).resolve().parent.parent / "notebooks" / "motors.yaml"
+    steer = "maxon-353297-48V_NPT025-i40"
+    spec = tmp_path / "s.yaml"
+    spec.write_text(
+        yaml.safe_dump(
+            {
+                "name": "s",
+                "scenario": "straight_line",
+                "fixed": {"total_time": 1.0, "ramp_time": 0.5},
+                "sweep": {"method": "grid", "params": {"slope_deg": [0.0, 5.0]}},
+                "output": str(tmp_path / "out"),
+            }
+        )
+    )
+    df = pd.DataFrame({"slope_deg": [0.0, 5.0]})
+    for given in (spec, str(spec)):
+        with pytest.raises(ConfigError, match=r"candidates: 'maxon-353297-48V_NPT025-i4' .*did you mean"):
+            motors.in_loop(given, df, catalogue, ["maxon-353297-48V_NPT025-i4"], steer=steer)
+    with pytest.raises(ConfigError, match=r"steer: 'nope' is not in the catalogue"):
+        motors.in_loop(spec, df, catalogue, [steer], steer="nope")
+
+
+def test_a_span_that_is_not_there_is_one_line():
+    """A servo sweep's rows screened on a mission span they do not have: one ConfigError line naming it."""
+    from batchveh.analysis.motors import demand
+
+    df = pd.DataFrame({f"drive_{c}_rms": [1.0] for c in ("lf", "rf", "lr", "rr")})
+    with pytest.raises(ConfigError, match=r"span: 'mission' has no column mission_drive_lf_rms") as err:
+        demand(df, span="mission")
+    assert "\n" not in str(err.value)

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from batchveh.analysis.motors import Battery, from_dcmotor, in_loop, load_battery, load_motors
+import batchveh
+from batchveh.analysis.motors import Battery, in_loop, screen_one
 from batchveh.engines.mujoco import MujocoEngine
 from batchveh.model.motors import load_catalogue
 from batchveh.model.vehicle import CORNERS
@@ -134,23 +135,35 @@ def test_the_second_pass_starts_from_the_hot_steady_state_and_names_why_the_smal
     assert table.set_index("motor").loc[BIG, "start_rise_median"] > 10 * float(cold_end.median())
 
 
-def test_the_catalogue_battery_and_envelopes_read_as_the_sheets_print():
-    """notebooks/motors.yaml's battery: 48 V, 20 Ah, 0.300 Ohm, 20 A (the listing's table): 960 Wh, and at
-    20 A (48 - 20 x 0.3) x 20 = 840 W. The EC 45 flat 24 V entry seen as an envelope at the shaft: continuous
-    K i_max = 0.0369 x 3.21 = 0.1184 N m; peak the gearhead's T2B 42 N m / (40 x 0.95) = 1.105 N m (below
-    the stall torque 0.0369 x 24 / 0.608 = 1.457 N m); no-load 24 / 0.0369 = 650.4 rad/s."""
-    battery = load_battery(CATALOGUE)
+def test_the_catalogue_and_its_battery_read_as_the_sheets_print():
+    """notebooks/motors.yaml through the public loaders. Its battery: 48 V, 20 Ah, 0.300 Ohm, 20 A (the listing's
+    table): 960 Wh, and at 20 A (48 - 20 x 0.3) x 20 = 840 W. The EC 45 flat 24 V entry (K 0.0369 N m/A, R 0.608
+    Ohm, 3.21 A, gearhead 40:1 at 0.95, T2B 42 N m) at the screen's limits, at the wheel: continuous torque
+    0.95 x 40 x 0.0369 x 3.21 = 4.501 N m; no-load speed 24 / (0.0369 x 40) = 16.26 rad/s; at half of it the
+    voltage line leaves half the stall torque, 0.95 x 40 x 0.0369 x 24 / 0.608 / 2 = 27.68 N m; the gearhead's
+    intermittent rating 42 N m. Each demand just under a limit passes it, just over fails it."""
+    battery = batchveh.load_battery(CATALOGUE)
     assert (battery.nominal_voltage, battery.capacity, battery.internal_resistance) == (48.0, 20.0, 0.3)
     assert battery.energy_wh == pytest.approx(960.0) and battery.max_power == pytest.approx(840.0)
-    motors = {m.name: m for m in load_motors(CATALOGUE)}
-    assert len(motors) >= 6
-    m = motors["maxon-EC45flat-70W-24V_NPT015-i40"]
-    assert m.continuous_torque == pytest.approx(0.0369 * 3.21, rel=1e-9)
-    assert m.peak_torque == pytest.approx(42.0 / 38.0, rel=1e-9)
-    assert m.max_speed == pytest.approx(24 / 0.0369, rel=1e-9)
-    # on the voltage line past the corner: half the no-load speed leaves half the stall torque
-    assert float(m.torque_limit(0.5 * 24 / 0.0369)) == pytest.approx(min(0.5 * 0.0369 * 24 / 0.608, 42 / 38), rel=1e-9)
-    assert from_dcmotor(load_catalogue(CATALOGUE)[BIG]).gear_ratio == 40.0
+    catalogue = batchveh.load_catalogue(CATALOGUE)
+    assert len(catalogue) >= 6 and catalogue[BIG].gear_ratio == 40.0
+    m = catalogue["maxon-EC45flat-70W-24V_NPT015-i40"]
+    continuous, no_load = 0.95 * 40 * 0.0369 * 3.21, 24 / (0.0369 * 40)
+    half_stall = 0.95 * 40 * 0.0369 * 24 / 0.608 / 2
+    under, over = 1 - 1e-3, 1 + 1e-3
+    need = __import__("pandas").DataFrame(
+        {  # rows: RMS at the continuous torque; the no-load speed; half the no-load speed; the gearhead's peak
+            "rms": [continuous * under, continuous * over, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0],
+            "peak": [continuous * under, continuous * over, 0.0, 0.0, half_stall * under, half_stall * over,
+                     42.0 * under, 42.0 * over],
+            "speed": [0.0, 0.0, no_load * under, no_load * over, no_load / 2, no_load / 2, 0.0, 0.0],
+        }
+    )  # fmt: skip
+    res = screen_one(need, m)
+    assert list(res["rms"]) == [False, True, False, False, False, False, False, False]
+    assert list(res["speed"]) == [False, False, False, True, False, False, False, False]
+    assert list(res["voltage"]) == [False, False, False, True, False, True, False, False]
+    assert list(res["gear_torque"]) == [False, False, False, False, False, False, False, True]
 
 
 def test_a_battery_too_small_is_the_reason(tmp_path):

@@ -157,9 +157,9 @@ def test_slip_is_reported_past_the_friction_limit(vehicle):
     np.testing.assert_allclose(s["drive_sum_mean"], _sliding_sum(vehicle, 20, 0.3), rtol=SLIDING_SUM_RTOL)
 
 
-# Peaks converge in dt (issue 10, finding 4; validation/PEAKS.md). motors.check sizes a drive motor on
-# the worst wheel's steady-window `rms` and whole-run `peak_lp_all`, and on `wheel_speed`; the unfiltered
-# `peak_all` (the issue's drive_sum_peak_all moved -22% per halving before) is checked too. Straight
+# Peaks converge in dt (issue 10, finding 4; validation/PEAKS.md). The motor screen (analysis.motors.demand)
+# sizes a drive motor on the worst wheel's steady-window `rms` and whole-run `peak_lp_all`, and on
+# `wheel_speed`; the unfiltered `peak_all` (the issue's drive_sum_peak_all moved -22% per halving before) is checked too. Straight
 # line, 10 deg, mu 0.9, 1 km/h, ramp 1 s, 4 s, the default laws (0.5 s settle, smooth_step drive) and
 # contact. Measured at dt 5 / 2.5 / 1.25 ms (change per halving), N m:
 #   drive rms:          front 12.535 / 12.621 / 12.657 (0.68%, 0.28%), rear 11.511 / 11.425 / 11.389 (0.75%, 0.31%)
@@ -199,12 +199,13 @@ def test_halving_dt_changes_mean_slope_torque_little(peak_runs):
 
 
 def test_halving_dt_moves_every_sizing_peak_by_at_most_2_percent(vehicle, peak_runs):
-    """Every statistic motors.check sizes on, each wheel's, and the unfiltered peaks, per halving of dt."""
+    """Every statistic the motor screen (analysis.motors.demand) sizes on, each wheel's, and the unfiltered peaks,
+    per halving of dt."""
     for name in SIZING_PEAKS:
         vals = [float(s[name]) for s in peak_runs]
         for a, b in zip(vals[:-1], vals[1:], strict=True):
             assert abs(b - a) / abs(b) <= PEAK_HALVING_RTOL, (name, vals)
-    # the worst wheel, as motors.check takes it
+    # the worst wheel, as the motor screen (analysis.motors.demand) takes it
     for stat in ("rms", "peak_lp_all"):
         worst = [max(abs(float(s[f"{w}_{stat}"])) for w in WHEELS) for s in peak_runs]
         for a, b in zip(worst[:-1], worst[1:], strict=True):

@@ -1,25 +1,39 @@
-"""Motor sizing: does a motor (through its gearbox) cover each variant's drive torques?
+"""Motor sizing from a servo sweep, against a datasheet catalogue of DC motors with their gearheads.
 
-A motor spec, in YAML:
+One catalogue format, `notebooks/motors.yaml`'s, serves every pass: a `motors:` list, each entry a motor
+as its datasheet gives it at the motor shaft with its gearhead nested under `gearhead:`, and an optional
+`battery:` section:
 
 ```yaml
 motors:
-  - name: M100
-    continuous_torque: 1.2   # N m at the motor shaft, thermally sustainable
-    peak_torque: 3.5         # N m at the motor shaft, short-term
-    max_speed: 600           # rad/s at the motor shaft (no-load)
-    corner_speed: 400        # rad/s: above it the torque limit falls as constant power
-    gear_ratio: 20           # motor turns per wheel turn
-    efficiency: 0.9          # gearbox efficiency, 0-1
+  - name: maxon-EC45flat-70W-48V_NPT015-i40   # unique: the name that screen, in_loop and a sweep use
+    nominal_voltage: 48.0               # V: the bus, unless bus_voltage is given
+    terminal_resistance: 6.89           # Ohm; or the triple nominal_voltage, stall_torque, no_load_speed
+    torque_constant: 0.131              # N m/A
+    max_continuous_current: 0.936       # A
+    rotor_inertia: 1.81e-5              # kg m^2
+    thermal_resistance_winding_housing: 4.1    # K/W
+    thermal_resistance_housing_ambient: 3.56   # K/W
+    thermal_time_constant_winding: 29.6        # s
+    max_winding_temperature: 125.0             # deg C
+    gearhead: {ratio: 40.0, efficiency: 0.95, max_continuous_torque: 22.0, max_intermittent_torque: 42.0,
+               max_input_speed: 1047.2}  # N m at its output; rad/s at its input
+battery: {nominal_voltage: 48.0, capacity: 20.0, internal_resistance: 0.3, max_continuous_discharge_current: 20.0}
 ```
 
-Checks per variant, on the worst of the four drive motors: the steady-window RMS torque
-against the continuous torque; the whole-run low-pass peak (`peak_lp_all`) against the
-torque limit at that speed; the wheel speed against the maximum speed.
+The loaders, also public as `batchveh.load_catalogue` and `batchveh.load_battery`:
+- `batchveh.model.motors.load_catalogue(path)` -> {name: DCMotor}, the `motors:` list by name;
+- `load_battery(path)` (here) -> Battery, the `battery:` section.
 
-`check_mission` does the same against a mission's duty cycle (`batchveh.model.missions`): the RMS
-over the mission (or one segment) against the continuous torque, the mission's low-pass peak
-against the peak torque, reported at the wheel and at the motor shaft.
+Two passes over the rows of a servo sweep (`batchveh.load(folder)`), the drive's demand taken on the
+worst of the four drive motors:
+1. `screen(df, catalogue, share=...)`: the fast screen, closed forms per variant (RMS current, steady
+   winding temperature, the voltage at the peak, the no-load speed, the gearhead's ratings; `REASONS`).
+   `share=1.0` gives the smallest motor that covers every variant; `span="mission"` (or a segment's
+   prefix, `seg2_climb`) reads a mission's columns over that span instead of the steady window's RMS,
+   the whole run's low-pass peak and the mean wheel speed.
+2. `in_loop(spec, df, path, candidates, steer=...)`: the screen's survivors run as MuJoCo dcmotors on
+   the same variants, from the hot steady state of back-to-back runs (`IN_LOOP_REASONS`).
 """
 
 from __future__ import annotations
@@ -35,171 +49,6 @@ from batchveh.config import ConfigError, field, from_mapping, load_yaml
 
 WHEELS = ("drive_lf", "drive_rf", "drive_lr", "drive_rr")
 GROUPS = {"drive": WHEELS, "steer": ("steer_lf", "steer_rf", "steer_lr", "steer_rr")}
-
-
-@dataclass(frozen=True)
-class Motor:
-    """A drive motor with its gearbox; torques and speeds at the motor shaft."""
-
-    name: str = "motor"
-    continuous_torque: float = field(1.0, unit="N m", gt=0)
-    peak_torque: float = field(3.0, unit="N m", gt=0)
-    max_speed: float = field(600.0, unit="rad/s", gt=0)
-    corner_speed: float = field(400.0, unit="rad/s", gt=0)
-    gear_ratio: float = field(20.0, unit="1", gt=0)
-    efficiency: float = field(0.9, unit="1", gt=0, le=1)
-    # a DC motor's voltage line (from_dcmotor): past the corner the limit falls as stall (1 - w / no_load_speed)
-    # rather than as constant power; 0 (the default): constant power
-    stall_torque: float = field(0.0, unit="N m", ge=0)
-    no_load_speed: float = field(0.0, unit="rad/s", ge=0)
-
-    def validate(self, where: str = "motor") -> None:
-        if self.peak_torque < self.continuous_torque:
-            raise ConfigError(
-                f"{where}.peak_torque: {self.peak_torque!r} is below continuous_torque "
-                f"{self.continuous_torque!r}; allowed: >= continuous_torque"
-            )
-        if self.corner_speed > self.max_speed:
-            raise ConfigError(f"{where}.corner_speed: {self.corner_speed!r} exceeds max_speed {self.max_speed!r}")
-
-    def torque_limit(self, speed: np.ndarray | float) -> np.ndarray:
-        """Peak torque available at motor speed `speed` (rad/s): flat to the corner, then constant power."""
-        w = np.abs(np.asarray(speed, float))
-        if self.stall_torque > 0:  # a DC motor: flat to the corner, then its voltage line
-            line = self.stall_torque * (1.0 - w / self.no_load_speed)
-            return np.where(w <= self.max_speed, np.clip(line, 0.0, self.peak_torque), 0.0)
-        limit = np.where(
-            w <= self.corner_speed, self.peak_torque, self.peak_torque * self.corner_speed / np.maximum(w, 1e-12)
-        )
-        return np.where(w <= self.max_speed, limit, 0.0)
-
-
-def load_motors(path: str | Path) -> list[Motor]:
-    """Motors from a YAML file with a `motors:` list (or one motor mapping): Motor's fields, or a datasheet
-    catalogue (notebooks/motors.yaml, batchveh.model.motors.load_catalogue), each entry seen through
-    `from_dcmotor`."""
-    data = load_yaml(path)
-    items = data.get("motors", [data]) if isinstance(data, dict) else data
-    if not isinstance(items, list) or not items:
-        raise ConfigError(f"{path}: motors: expected a non-empty list of motor mappings")
-    if all(isinstance(x, dict) and ("gearhead" in x or "torque_constant" in x or "stall_torque" in x) for x in items):
-        from batchveh.model.motors import load_catalogue
-
-        return [from_dcmotor(m) for m in load_catalogue(path).values()]
-    return [from_mapping(Motor, item, f"{path}: motors[{i}]") for i, item in enumerate(items)]
-
-
-def from_dcmotor(motor: Any) -> Motor:
-    """A datasheet motor with its gearhead (batchveh.model.motors.DCMotor) as a torque-speed envelope at the
-    shaft: continuous torque K i_max; peak torque the stall torque K V / R at the bus voltage, or the
-    gearhead's intermittent rating reflected to the shaft where lower; no-load speed V / K (or the
-    gearhead's input speed where lower); the voltage line from stall to no-load beyond the peak
-    (`Motor.stall_torque`), not constant power."""
-    c = motor.resolved()
-    stall = c["K"] * c["V"] / c["R"]
-    peak = stall
-    if motor.gear_max_intermittent_torque is not None:
-        peak = min(peak, motor.gear_max_intermittent_torque / (c["N"] * c["eta"]))
-    continuous = min(c["K"] * c["i_max"], peak) if c["i_max"] else peak
-    w0 = c["V"] / c["K"]
-    top = min(w0, motor.gear_max_input_speed) if motor.gear_max_input_speed is not None else w0
-    corner = min(max(w0 * (1.0 - peak / stall), 1e-9), top)
-    return Motor(
-        name=motor.name,
-        continuous_torque=continuous,
-        peak_torque=peak,
-        max_speed=top,
-        corner_speed=corner,
-        gear_ratio=c["N"],
-        efficiency=c["eta"],
-        stall_torque=stall,
-        no_load_speed=w0,
-    )
-
-
-def check(df: pd.DataFrame, motor: Motor) -> pd.DataFrame:
-    """Per-variant shaft torques and speed and whether `motor` suffices (columns fits_*)."""
-    scale = motor.gear_ratio * motor.efficiency
-    out = pd.DataFrame(index=df.index)
-    out["shaft_rms"] = df[[f"{w}_rms" for w in WHEELS]].abs().max(axis=1) / scale
-    out["shaft_peak"] = df[[f"{w}_peak_lp_all" for w in WHEELS]].abs().max(axis=1) / scale
-    out["shaft_speed"] = df["wheel_speed"].abs() * motor.gear_ratio
-    out["fits_continuous"] = out.shaft_rms <= motor.continuous_torque
-    out["fits_peak"] = out.shaft_peak <= motor.torque_limit(out.shaft_speed)
-    out["fits_speed"] = out.shaft_speed <= motor.max_speed
-    out["fits"] = out.fits_continuous & out.fits_peak & out.fits_speed
-    return out
-
-
-def check_mission(df: pd.DataFrame, motor: Motor, span: str = "mission", group: str = "drive") -> pd.DataFrame:
-    """Per-variant mission torques against `motor`, at the wheel and at the motor shaft (fits_*).
-
-    On the worst of the group's four motors ('drive' or 'steer') over `span` ('mission', the whole
-    duty cycle, or a segment's prefix such as 'seg2_climb'):
-    - continuous: the RMS torque (`<span>_<motor>_rms`) against continuous_torque;
-    - peak: the low-pass peak (`<span>_<motor>_peak_lp`) against the torque limit at the span's peak
-      speed (`<span>_<motor>_speed_peak`): conservative, as if the peak torque came at the top speed;
-    - speed: that peak speed against max_speed.
-    At the wheel (N m, rad/s): the torques as simulated, against the motor's ratings through the
-    gearbox (torque x gear_ratio x efficiency, speed / gear_ratio). At the shaft: the torques
-    / (gear_ratio x efficiency) and the speed x gear_ratio, against the ratings themselves."""
-    if group not in GROUPS:
-        raise ConfigError(f"group: {group!r} is not allowed; allowed: {', '.join(GROUPS)}")
-    names = GROUPS[group]
-    missing = [
-        f"{span}_{m}_{s}" for m in names for s in ("rms", "peak_lp", "speed_peak") if f"{span}_{m}_{s}" not in df
-    ]
-    if missing:
-        spans = sorted({c.removesuffix("_drive_lf_rms") for c in df.columns if c.endswith("_drive_lf_rms")})
-        raise ConfigError(
-            f"span: {span!r} has no column {missing[0]} (not a mission result, or another span); "
-            f"allowed: {', '.join(s for s in spans if s.startswith(('mission', 'seg'))) or 'a mission result'}"
-        )
-    through = motor.gear_ratio * motor.efficiency  # wheel torque per shaft torque
-    out = pd.DataFrame(index=df.index)
-    out["wheel_rms"] = df[[f"{span}_{m}_rms" for m in names]].abs().max(axis=1)
-    out["wheel_peak"] = df[[f"{span}_{m}_peak_lp" for m in names]].abs().max(axis=1)
-    out["wheel_speed_peak"] = df[[f"{span}_{m}_speed_peak" for m in names]].abs().max(axis=1)
-    out["shaft_rms"] = out.wheel_rms / through
-    out["shaft_peak"] = out.wheel_peak / through
-    out["shaft_speed_peak"] = out.wheel_speed_peak * motor.gear_ratio
-    shaft_limit = motor.torque_limit(out.shaft_speed_peak)
-    out["wheel_continuous_rating"] = motor.continuous_torque * through
-    out["wheel_peak_limit"] = shaft_limit * through
-    out["wheel_max_speed"] = motor.max_speed / motor.gear_ratio
-    out["fits_continuous"] = out.shaft_rms <= motor.continuous_torque
-    out["fits_peak"] = out.shaft_peak <= shaft_limit
-    out["fits_speed"] = out.shaft_speed_peak <= motor.max_speed
-    out["fits"] = out.fits_continuous & out.fits_peak & out.fits_speed
-    return out
-
-
-def smallest(df: pd.DataFrame, catalogue: list[Motor], span: str | None = None) -> tuple[Motor | None, pd.DataFrame]:
-    """The motor with the lowest continuous torque that fits every row, and a per-motor summary.
-
-    `span`: None checks the usual columns (`check`: the steady window's RMS, the whole run's
-    peaks); a mission span ('mission', or a segment's prefix such as 'seg2_climb') checks the
-    mission's columns over it (`check_mission`)."""
-    rows: list[dict[str, Any]] = []
-    checks = {m.name: check(df, m) if span is None else check_mission(df, m, span) for m in catalogue}
-    for m in catalogue:
-        c = checks[m.name]
-        rows.append(
-            {
-                "motor": m.name,
-                "continuous_torque": m.continuous_torque,
-                "peak_torque": m.peak_torque,
-                "gear_ratio": m.gear_ratio,
-                "fits_all": bool(c.fits.all()),
-                "fit_fraction": float(c.fits.mean()),
-                "continuous_fails": int((~c.fits_continuous).sum()),
-                "peak_fails": int((~c.fits_peak).sum()),
-                "speed_fails": int((~c.fits_speed).sum()),
-            }
-        )
-    summary = pd.DataFrame(rows).sort_values("continuous_torque").reset_index(drop=True)
-    fitting = [m for m in sorted(catalogue, key=lambda m: m.continuous_torque) if checks[m.name].fits.all()]
-    return (fitting[0] if fitting else None), summary
 
 
 # --- DC motors from datasheets (batchveh.model.motors): the fast screen, with the reason of each failure ---
@@ -218,8 +67,16 @@ REASON_TEXT = {
 def demand(df: pd.DataFrame, group: str = "drive", span: str | None = None) -> pd.DataFrame:
     """Each variant's demand on the worst of the group's four motors, at the wheel: RMS and peak torque
     (N m), and speed (rad/s): the steady window's RMS, the whole run's low-pass peak and the mean
-    wheel speed; or a mission span's RMS, peak and peak speed."""
+    wheel speed; or a mission span's RMS, peak and peak speed. A group or span with no such columns is one
+    ConfigError line."""
+    if group not in GROUPS:
+        raise ConfigError(f"group: {group!r} is not allowed; allowed: {', '.join(GROUPS)}")
     names = GROUPS[group]
+    need = [f"{m}_rms" for m in names] if span is None else [f"{span}_{m}_rms" for m in names]
+    if need[0] not in df:
+        spans = sorted({c.removesuffix("_drive_lf_rms") for c in df.columns if c.endswith("_drive_lf_rms")})
+        allowed = ", ".join(x for x in spans if x.startswith(("mission", "seg"))) or "none (not a mission result)"
+        raise ConfigError(f"span: {span!r} has no column {need[0]}; allowed: None or a mission span: {allowed}")
     out = pd.DataFrame(index=df.index)
     if span is None:
         out["rms"] = df[[f"{m}_rms" for m in names]].abs().max(axis=1)
@@ -285,10 +142,30 @@ def screen(
 ) -> tuple[str | None, pd.DataFrame, dict[str, pd.DataFrame]]:
     """The fast screen of a sweep's ideal-servo demand against DC motors with their gearheads.
 
-    Returns (the smallest candidate that covers at least `share` of the variants, by its continuous
-    torque at the wheel eta N K i_cont, or None; one row per candidate with its coverage and the count
-    of variants failing for each reason; per candidate, the failing variants: `params` columns of
-    `df` (default: every column not a statistic) and the reasons they fail)."""
+    `df`: the rows of a servo sweep (`batchveh.load(folder)`); `catalogue`: {name: DCMotor}, as
+    `batchveh.load_catalogue(path)` returns it. Each variant's demand is `demand(df, group, span)`: on the
+    worst of the group's four motors ('drive' or 'steer'), the steady window's RMS, the whole run's
+    low-pass peak and the mean wheel speed, or, with `span` ('mission' or a segment's prefix such as
+    'seg2_climb'), the span's RMS, low-pass peak and peak speed. Each motor is checked per variant by
+    `screen_one` (the reasons: REASONS, REASON_TEXT).
+
+    The rotor's inertia: the servo sweep simulated a reflected inertia of `armature` at each drive joint
+    (kg m^2 at the wheel: pass the sweep's `spec.vehicle.motors.armature`); a candidate reflects J N^2
+    (its rotor inertia J through its ratio N). Each variant's peak torque is taken as the demand's peak
+    plus max(J N^2 - armature, 0) x |accel|, with `accel` the wheel's angular acceleration (rad/s^2; one
+    number, or one per row of `df`, e.g. the speed over the ramp time). With the defaults (armature 0,
+    accel 0) nothing is added: the rotor's inertia is not reflected unless `accel` is given.
+
+    Returns a 3-tuple (best, table, failing):
+    - best: the name of the smallest candidate, by its continuous torque at the wheel eta N K i_max,
+      whose coverage is at least `share` (the share of `df`'s rows it covers), or None where none does.
+      `share=1.0`: the smallest motor that covers every variant;
+    - table: a DataFrame, one row per candidate sorted by that torque: motor, gear_ratio,
+      continuous_torque_at_wheel (N m), coverage (0-1) and fails_<reason> for each of REASONS (the count
+      of variants failing for it; a variant may fail for several);
+    - failing: {name: DataFrame} per candidate, its failing variants (index of `df`): the `params`
+      columns of `df` (default: every sweepable parameter's column in `df`) and one boolean column per
+      reason (True = fails)."""
     if not 0 < share <= 1:
         raise ConfigError(f"share: {share!r} is not allowed; allowed: 0 < share <= 1")
     need = demand(df, group, span)
@@ -352,7 +229,9 @@ class Battery:
 
 
 def load_battery(path: str | Path) -> Battery:
-    """The `battery:` section of a catalogue YAML (notebooks/motors.yaml)."""
+    """The `battery:` section of a catalogue YAML (notebooks/motors.yaml) as a Battery (its nominal_voltage,
+    capacity, internal_resistance and max_continuous_discharge_current; energy_wh and max_power derived);
+    other keys of the section are ignored, and a missing section is one ConfigError line."""
     data = load_yaml(path)
     raw = data.get("battery") if isinstance(data, dict) else None
     if not isinstance(raw, dict):
@@ -384,17 +263,31 @@ def in_loop(
     backend: str | None = None,
     stop_at_first: bool = True,
 ) -> tuple[str | None, pd.DataFrame, dict[str, pd.DataFrame]]:
-    """Run `candidates` (catalogue names, smallest first) as the drive motors, in the loop, on the variants of
-    `df` (rows of the servo sweep `spec`), steering on `steer`; return (the first candidate that covers
-    `share` of the variants, or None; one row per candidate run; per candidate, its variants' in-the-loop
-    columns and reasons, IN_LOOP_REASONS, True = fails). A variant whose run failed a physics check
-    (`motor_status` unstable) or diverged could not be simulated: it is counted in the row's `not_simulated`,
-    never as a reason, and the coverage is over the variants simulated.
+    """The second pass: `candidates` run as the drive motors in the loop (MuJoCo's dcmotor), on the variants
+    of the servo sweep `df`.
+
+    `spec`: the servo sweep's SweepSpec, `batchveh.load_spec(path)` (a YAML path given here is read with
+    it); `df`: its rows, `batchveh.load(folder)`, holding a column per swept parameter (`spec.params`), or
+    the rows to re-run (e.g. a `screen`'s failing variants); `catalogue`: the catalogue YAML's path (the
+    runs read it, as a sweep's `motors.catalogue` does; not the dict of `batchveh.load_catalogue`);
+    `candidates`: catalogue names, smallest first (e.g. the `screen` table's motors with enough coverage);
+    `steer`: the catalogue name of the steering motors. A name not in the catalogue is one ConfigError line
+    with did-you-mean. `battery`: a Battery (`batchveh.load_battery(path)`), or None for no energy check.
+
+    Returns a 3-tuple (best, table, detail): the first candidate that covers `share` of the variants
+    simulated, or None; a DataFrame with one row per candidate run (motor, gear_ratio,
+    continuous_torque_at_wheel, coverage, not_simulated, not_simulated_why, fails_<reason> for each of
+    IN_LOOP_REASONS, start_rise_median, residual_K, runs; `in_loop_lines` words it); {name: DataFrame} per
+    candidate, each variant's parameters, its in-the-loop columns and fails_<reason> (True = fails). A
+    variant whose run failed a physics check (`motor_status` unstable) or diverged could not be simulated:
+    it is counted in the row's `not_simulated`, never as a reason, and the coverage is over the variants
+    simulated.
 
     With `hot`, a candidate runs first from ambient, then `iterations` times from the start rise that would
     make its run end where it started (`_hot_start` from the previous run's end, each drive and steering
     winding at its group's hottest): the thermal state of back-to-back runs. The row gives the median start
-    rise and the largest |end - start| left (K). `stop_at_first`: stop at the first candidate that covers."""
+    rise and the largest |end - start| left (K). `stop_at_first`: stop at the first candidate that covers.
+    `backend`: None for 'mujoco', or 'warp' (MJX's JAX implementation has no dcmotor)."""
     import dataclasses
 
     from batchveh.engines import make_engine, resolve_backend
@@ -404,6 +297,10 @@ def in_loop(
 
     if not 0 < share <= 1:
         raise ConfigError(f"share: {share!r} is not allowed; allowed: 0 < share <= 1")
+    if isinstance(spec, str | Path):  # the YAML's path, not the spec: read it as batchveh.load_spec does
+        from batchveh.sweeping.spec import load_spec
+
+        spec = load_spec(spec)
     cat = load_catalogue(catalogue)
     pick(cat, steer, "steer")
     table = {k: df[k].to_numpy(float) for k in spec.params}

@@ -195,8 +195,9 @@ def dcmotor_xml(name: str, joint: str, motor: DCMotor, *, rotor: bool = True, th
 
 
 def load_catalogue(path: str | Path) -> dict[str, DCMotor]:
-    """The motors of a catalogue YAML (a list under `motors:`, each a mapping of DCMotor's fields, the
-    gearhead nested under `gearhead:` with `ratio` and `efficiency`), by name."""
+    """The motors of a catalogue YAML (notebooks/motors.yaml's format: a list under `motors:`, each a mapping of
+    DCMotor's fields, the gearhead nested under `gearhead:` with `ratio`, `efficiency` and its ratings): a dict
+    {name: DCMotor}, in the file's order. A bad entry is one ConfigError line naming the file, entry and key."""
     data = load_yaml(path)
     known = {f.name for f in fields(DCMotor)}
     out: dict[str, DCMotor] = {}

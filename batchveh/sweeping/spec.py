@@ -317,7 +317,11 @@ def check_run(scenario: Scenario, window: tuple[float, float] | None, where: str
 
 
 def load_spec(path: str | Path) -> SweepSpec:
-    """Read and validate a sweep YAML; every error is one ConfigError line."""
+    """Read and validate a sweep YAML (sweeps/*.yaml); every error is one ConfigError line.
+
+    Returns the SweepSpec: its scenario and vehicle with the fixed values set, the swept `params`, the
+    sampling, `output` and the engine's settings; `batchveh.run_sweep(spec)` runs it, `spec.table()` counts
+    its variants, `batchveh.analysis.motors.in_loop(spec, ...)` re-runs its variants with real motors."""
     return spec_from_mapping(load_yaml(path), str(path))
 
 

@@ -1,0 +1,100 @@
+"""docs/user-guide.md's Python runs as written, on tiny sizes, so the guide cannot drift from the API.
+
+Each ```python block of the guide runs as its own script (a reader may start at any section) in a temporary
+folder that holds small copies of the specs in sweeps/ (tests/test_readme.py's `tiny`: the same keys, two
+values of each swept parameter or 4 sampled rows, 1 s of driving; a mission keeps its segments) and a link to
+notebooks/. Every `batchveh.<name>` the guide writes, and every `motors.<name>(...)` call, must exist.
+"""
+
+import importlib
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+from test_readme import blocks, tiny
+
+ROOT = Path(__file__).resolve().parent.parent
+GUIDE = ROOT / "docs" / "user-guide.md"
+RUN_TIMEOUT_S = 300
+# the calls that sizing documents: each must run in one of the guide's Python blocks, not only be named
+SIZING_CALLS = ("batchveh.load_spec(", "batchveh.load_catalogue(", "batchveh.load_battery(", "motors.screen(")
+SIZING_CALLS += ("motors.in_loop(",)
+
+
+@pytest.fixture(scope="module")
+def guide(tmp_path_factory):
+    """A folder to run the guide in: tiny sweeps/, the notebooks' catalogue; the environment for the runs."""
+    here = tmp_path_factory.mktemp("guide")
+    (here / "sweeps").mkdir()
+    for path in (ROOT / "sweeps").glob("*.yaml"):
+        (here / "sweeps" / path.name).write_text(yaml.safe_dump(tiny(yaml.safe_load(path.read_text()))))
+    (here / "notebooks").symlink_to(ROOT / "notebooks")
+    env = {
+        **os.environ,
+        "MPLBACKEND": "Agg",
+        "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
+    }
+    return here, env
+
+
+PYTHON = blocks(GUIDE, "python")
+
+
+def test_the_guide_runs_the_sizing_calls_it_documents():
+    assert PYTHON, "docs/user-guide.md has no ```python block"
+    code = "\n".join(PYTHON)
+    missing = [call for call in SIZING_CALLS if call not in code]
+    assert not missing, f"documented but never run in a ```python block of the guide: {missing}"
+
+
+@pytest.mark.parametrize("k", range(len(PYTHON)), ids=lambda k: f"block{k}")
+def test_each_python_block_runs_as_written(guide, k):
+    here, env = guide
+    done = subprocess.run(
+        [sys.executable, "-c", PYTHON[k]], cwd=here, env=env, capture_output=True, text=True, timeout=RUN_TIMEOUT_S
+    )
+    assert done.returncode == 0, (
+        f"user guide, python block {k}:\n{PYTHON[k]}\n{done.stdout[-2000:]}\n{done.stderr[-3000:]}"
+    )
+    for line in PYTHON[k].splitlines():  # each print of a label shows the label: the block ran to its end
+        label = re.match(r'print\("([^"{]+?):"', line.strip())
+        if label:
+            assert label.group(1) in done.stdout, (label.group(1), done.stdout[-2000:])
+    if "motors.in_loop(" in PYTHON[k]:  # a candidate ran in the loop: in_loop_lines has a line for it
+        assert re.search(r"^\S+: covers \d", done.stdout, re.M), done.stdout[-2000:]
+
+
+def _resolve(dotted: str):
+    """batchveh.a.b.c as an attribute, importing the submodules on the way."""
+    obj, prefix = importlib.import_module("batchveh"), "batchveh"
+    for part in dotted.split(".")[1:]:
+        prefix = f"{prefix}.{part}"
+        if hasattr(obj, part):
+            obj = getattr(obj, part)
+        else:
+            obj = importlib.import_module(prefix)  # ModuleNotFoundError names what the guide got wrong
+    return obj
+
+
+def test_every_name_the_guide_writes_exists():
+    """`batchveh.x.y` anywhere in the guide (not a file name such as .batchveh.lock), and `motors.f(` as a call
+    of batchveh.analysis.motors."""
+    text = GUIDE.read_text()
+    names = set(re.findall(r"(?<![\w./-])(batchveh(?:\.\w+)+)", text))
+    assert {"batchveh.load_spec", "batchveh.load_catalogue", "batchveh.load_battery"} <= names
+    missing = []
+    for name in sorted(names):
+        try:
+            _resolve(name)
+        except (AttributeError, ImportError):
+            missing.append(name)
+    from batchveh.analysis import motors
+
+    calls = set(re.findall(r"(?<![\w.])motors\.(\w+)\(", text))
+    assert {"screen", "in_loop"} <= calls
+    missing += [f"motors.{c}" for c in sorted(calls) if not hasattr(motors, c)]
+    assert not missing, f"the guide names what does not exist: {missing}"
