@@ -160,8 +160,8 @@ def test_slip_is_reported_past_the_friction_limit(vehicle):
 # Peaks converge in dt (issue 10, finding 4; validation/PEAKS.md). The motor screen (analysis.motors.demand)
 # sizes a drive motor on the worst wheel's steady-window `rms` and whole-run `peak_lp_all`, and on
 # `wheel_speed`; the unfiltered `peak_all` (the issue's drive_sum_peak_all moved -22% per halving before) is
-# checked too. Straight line, 10 deg, mu 0.9, 1 km/h, ramp 1 s, 4 s, the default laws (0.5 s settle, smooth_step drive) and
-# contact. Measured at dt 5 / 2.5 / 1.25 ms (change per halving), N m:
+# checked too. Straight line, 10 deg, mu 0.9, 1 km/h, ramp 1 s, 4 s, the default laws (0.5 s settle,
+# smooth_step drive) and contact. Measured at dt 5 / 2.5 / 1.25 ms (change per halving), N m:
 #   drive rms:          front 12.535 / 12.621 / 12.657 (0.68%, 0.28%), rear 11.511 / 11.425 / 11.389 (0.75%, 0.31%)
 #   drive peak_lp_all:  front 16.517 / 16.380 / 16.348 (0.84%, 0.20%), rear 16.556 / 16.387 / 16.329 (1.03%, 0.35%)
 #   drive peak_all:     front 16.619 / 16.470 / 16.434 (0.90%, 0.22%), rear 16.655 / 16.477 / 16.417 (1.08%, 0.37%)
