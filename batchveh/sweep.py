@@ -494,8 +494,11 @@ def main(argv: list[str] | None = None) -> int:
         )
         if args.plots:
             from batchveh.analysis.plot import sweep_figures
+            from batchveh.sweeping.spec import SAMPLED
 
-            figs = sweep_figures(load(s["out"]), spec.name, s["out"], swept=list(spec.params))
+            figs = sweep_figures(
+                load(s["out"]), spec.name, s["out"], swept=list(spec.params), sampled=spec.method in SAMPLED
+            )
             s["folder"].record_files(figs)
             print("figures: " + ", ".join(str(p) for p in figs))
     except ConfigError as err:

@@ -58,7 +58,7 @@ SPEED_ERR = 0.01  # steady speed against the imposed, relative: measured max 6.0
 # (motor_status 'unstable' also reads the applied torque's RMS over the current's, at most 1.2: measured max
 # 1.0003; 1.21-1.66 in the chatter before the fix)
 
-FAST_EXAMPLES, SLOW_EXAMPLES = 12, 150
+FAST_EXAMPLES, SLOW_EXAMPLES = 6, 150
 # CI repeats the same draws; no example database (Hypothesis still caches constants in .hypothesis/, which it
 # gitignores itself)
 COMMON = {"deadline": None, "derandomize": True, "database": None}
