@@ -61,6 +61,7 @@ REASON_TEXT = {
     "speed": "the wheel speed needs more than the no-load speed at the bus voltage",
     "gear_torque": "wheel torque above the gearhead's continuous or intermittent rating",
     "gear_speed": "motor speed above the gearhead's input speed",
+    "steering": "a steering motor could not hold its angle (more than 5 deg off): the steering motor, not the drive",
 }
 
 
@@ -195,7 +196,8 @@ def screen(
 
 # --- the second pass: the screen's survivors in the loop, from the hot steady state ---
 
-IN_LOOP_REASONS = ("voltage", "peak", "speed", "thermal", "energy", "gear_torque", "gear_speed")
+IN_LOOP_REASONS = ("voltage", "peak", "speed", "thermal", "energy", "gear_torque", "gear_speed", "steering")
+STEER_LOST_DEG = 5.0  # a steering angle more than this far from the imposed one: the steering motor lost it
 IN_LOOP_TEXT = {
     "voltage": "fell short of the imposed speed with a drive at its voltage line (the bus voltage)",
     "peak": "fell short of the imposed speed with a drive at its current limit (not torque enough)",
@@ -403,4 +405,5 @@ def _in_loop_reasons(res: pd.DataFrame, motor: Any, c: dict, battery: Battery | 
     out["gear_torque"] = gear
     speed = res["wheel_speed"].abs().to_numpy() * c["N"]
     out["gear_speed"] = speed > motor.gear_max_input_speed if motor.gear_max_input_speed is not None else False
+    out["steering"] = res["steer_track_err_deg"].to_numpy() > STEER_LOST_DEG
     return out
