@@ -135,6 +135,6 @@ def test_the_loop_starts_below_the_screens_choice():
     table = pd.DataFrame({"motor": ["a", "b", "c", "d"], "coverage": np.array([0.2, 0.5, 0.99, 1.0])})
     assert candidates(table, "c") == ["b", "c", "d"]
     assert candidates(table, "a") == ["a", "b", "c", "d"]
-    assert candidates(table, None) == ["d"]  # within 5 points of the best coverage
+    assert candidates(table, None) == ["c", "d"]  # within 5 points of the best coverage
     near = table.assign(coverage=[0.2, 0.96, 0.5, 0.93])
     assert candidates(near, None) == ["b", "d"]

@@ -61,7 +61,6 @@ REASON_TEXT = {
     "speed": "the wheel speed needs more than the no-load speed at the bus voltage",
     "gear_torque": "wheel torque above the gearhead's continuous or intermittent rating",
     "gear_speed": "motor speed above the gearhead's input speed",
-    "steering": "a steering motor could not hold its angle (more than 5 deg off): the steering motor, not the drive",
 }
 
 
@@ -206,6 +205,7 @@ IN_LOOP_TEXT = {
     "energy": "the run's bus energy above the battery's, or its peak power above the battery's",
     "gear_torque": "wheel torque above the gearhead's continuous (RMS) or intermittent (peak) rating",
     "gear_speed": "motor speed above the gearhead's input speed",
+    "steering": "a steering motor could not hold its angle (more than 5 deg off): the steering motor, not the drive",
 }
 
 
