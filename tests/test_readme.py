@@ -73,10 +73,9 @@ def tiny(spec: dict) -> dict:
     return spec
 
 
-@pytest.fixture(scope="module")
-def tour(tmp_path_factory):
-    """A folder to run the README in: tiny sweeps/, the notebooks' catalogue; environment for the runs."""
-    here = tmp_path_factory.mktemp("readme")
+def tiny_folder(tmp_path_factory, name: str):
+    """A folder to run documented commands in: tiny sweeps/, the notebooks' catalogue; environment for the runs."""
+    here = tmp_path_factory.mktemp(name)
     (here / "sweeps").mkdir()
     for path in (ROOT / "sweeps").glob("*.yaml"):
         (here / "sweeps" / path.name).write_text(yaml.safe_dump(tiny(yaml.safe_load(path.read_text()))))
@@ -87,6 +86,12 @@ def tour(tmp_path_factory):
         "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
     }
     return here, env
+
+
+@pytest.fixture(scope="module")
+def tour(tmp_path_factory):
+    """A folder to run the README in (`tiny_folder`)."""
+    return tiny_folder(tmp_path_factory, "readme")
 
 
 def test_readme_is_a_front_door():

@@ -7,15 +7,13 @@ notebooks/. Every `batchveh.<name>` the guide writes, and every `motors.<name>(.
 """
 
 import importlib
-import os
 import re
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-import yaml
-from test_readme import blocks, tiny
+from test_readme import blocks, tiny_folder
 
 ROOT = Path(__file__).resolve().parent.parent
 GUIDE = ROOT / "docs" / "user-guide.md"
@@ -27,18 +25,8 @@ SIZING_CALLS += ("motors.in_loop(",)
 
 @pytest.fixture(scope="module")
 def guide(tmp_path_factory):
-    """A folder to run the guide in: tiny sweeps/, the notebooks' catalogue; the environment for the runs."""
-    here = tmp_path_factory.mktemp("guide")
-    (here / "sweeps").mkdir()
-    for path in (ROOT / "sweeps").glob("*.yaml"):
-        (here / "sweeps" / path.name).write_text(yaml.safe_dump(tiny(yaml.safe_load(path.read_text()))))
-    (here / "notebooks").symlink_to(ROOT / "notebooks")
-    env = {
-        **os.environ,
-        "MPLBACKEND": "Agg",
-        "PYTHONPATH": os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])),
-    }
-    return here, env
+    """A folder to run the guide in (test_readme's `tiny_folder`)."""
+    return tiny_folder(tmp_path_factory, "guide")
 
 
 PYTHON = blocks(GUIDE, "python")

@@ -403,13 +403,14 @@ class _Stepper:
                 self.ctrl[:] = self.drive.voltages(ctrls[:, k, :w], self.live["qpos"], self.live["qvel"])
             else:
                 self.ctrl[:] = ctrls[:, k, :w]
-            wrench = np.zeros((n, self.nbody, 6))
+            wrench = None
             if self.tyre is not None:
                 xmat = self.xmat.reshape(n, self.nbody, 3, 3)
                 wrench = self.tyre.wrench(self.xpos, xmat, self.live["qvel"], self.cfrc, self.xfrc)
             if ctrls.shape[2] > w:  # a mission's slope forces
-                wrench = wrench + ctrls[:, k, w:].reshape(n, self.nbody, 6)
-            if self.tyre is not None or ctrls.shape[2] > w:
+                slope = ctrls[:, k, w:].reshape(n, self.nbody, 6)
+                wrench = slope if wrench is None else wrench + slope
+            if wrench is not None:
                 self.xfrc[:] = wrench
             try:
                 self.b.step()

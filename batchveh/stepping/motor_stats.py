@@ -90,7 +90,6 @@ class MotorStatsConfig:
     V: tuple[float, ...]  # V, the bus voltage
     force_max: tuple[float, ...]  # N m at the motor, 0: no current limit
     T_amb: tuple[float, ...]  # deg C
-    thermal: tuple[bool, ...]
     R_T: tuple[float, ...] = (0.0,) * 8  # K/W, the winding's one-node thermal resistance (0: no thermal model)
     C: tuple[float, ...] = (0.0,) * 8  # J/K, its capacitance
     N: tuple[float, ...] = (1.0,) * 8  # the gear ratio
@@ -107,7 +106,6 @@ class MotorStatsConfig:
             return None
         drive, steer = (x.resolved() for x in vehicle.motors.dcmotors())
         each = [drive] * 4 + [steer] * 4
-        thermal = tuple(c["R_T"] > 0 for c in each)
         return MotorStatsConfig(
             K=tuple(c["K"] for c in each),
             R=tuple(c["R"] / c["eta"] for c in each),
@@ -115,7 +113,6 @@ class MotorStatsConfig:
             V=tuple(c["V"] for c in each),
             force_max=tuple(c["K"] * c["eta"] * c["i_max"] for c in each),
             T_amb=tuple(c["T_amb"] if c["R_T"] > 0 else REFERENCE_TEMP for c in each),
-            thermal=thermal,
             R_T=tuple(c["R_T"] for c in each),
             C=tuple(c["C"] if c["R_T"] > 0 else 0.0 for c in each),
             N=tuple(c["N"] for c in each),
