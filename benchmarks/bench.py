@@ -682,12 +682,16 @@ def main():
 
 
 # MuJoCo Warp driven directly: the GPU peer (was benchmarks/mjwarp_direct.py)
-def bench_mjwarp_direct(model, gravity, friction, omega, n_steps: int, graph_steps: int = 50, contacts: int = 24):
+def bench_mjwarp_direct(
+    model, gravity, friction, omega, n_steps: int, graph_steps: int = 50, contacts: int = 24, deterministic: int = 0,
+    final: dict | None = None,
+):  # fmt: skip
     """variant-steps/s of MuJoCo Warp stepping len(omega) worlds for n_steps.
 
-    model: the MjModel; gravity (n, 3), friction (n,) of the ground geom, omega (n,) rad/s."""
+    model: the MjModel; gravity (n, 3), friction (n,) of the ground geom, omega (n,) rad/s. deterministic:
+    MuJoCo Warp's DeterminismType bits. final: if given, filled with the last qpos, qvel and qfrc_actuator."""
+    import mujoco_warp as mjw
     import warp as wp
-    from mujoco.mjx.third_party import mujoco_warp as mjw
 
     from batchveh.engines.warp import constraint_rows
     from batchveh.model.vehicle import layout
@@ -699,6 +703,7 @@ def bench_mjwarp_direct(model, gravity, friction, omega, n_steps: int, graph_ste
     with wp.ScopedDevice(device):
         mw = mjw.put_model(model)
         mw.opt.warn_overflow = 0
+        mw.opt.deterministic = deterministic
         mw.opt.gravity = wp.array(np.asarray(gravity, np.float32), dtype=wp.vec3)
         fr = np.broadcast_to(model.geom_friction, (n, *model.geom_friction.shape)).astype(np.float32)
         fr[:, lay.ground_geom, 0] = friction
@@ -743,6 +748,8 @@ def bench_mjwarp_direct(model, gravity, friction, omega, n_steps: int, graph_ste
         wp.synchronize()
         wall = time.perf_counter() - t0
         qvel = d.qvel.numpy()
+        if final is not None:
+            final.update(qpos=d.qpos.numpy(), qvel=qvel, qfrc_actuator=d.qfrc_actuator.numpy())
     finite = float(np.isfinite(qvel).all(axis=1).mean())
     return n * calls * graph_steps / wall, {"graph_steps": graph_steps, "device": device, "finite_share": finite}
 

@@ -130,7 +130,7 @@ def _landed(cache: Path, start: float) -> list[list]:
 
 
 def fresh(args) -> None:
-    ways = {"serial": {"BATCHVEH_WARP_PREBUILD": "0"}, "ahead": {}}
+    ways = {"serial": {"BATCHVEH_WARP_PREBUILD": "0"}, "ahead": {}, "threads": {"BATCHVEH_WARP_PREBUILD": "threads"}}
     ways = {k: v for k, v in ways.items() if k in args.ways.split(",")}
     for extra in args.extra_way:  # NAME:KEY=VALUE[,KEY=VALUE...]
         name, _, pairs = extra.partition(":")

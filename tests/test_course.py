@@ -129,17 +129,22 @@ def test_terrain_seed_and_heights_per_variant(vehicle):
 
 def test_mjx_collision_table_matches_mjx():
     """course.JAX_CANNOT_COLLIDE is MJX's own table for the wheel and ground shapes batchveh makes, and
-    WARP_PER_MODEL is what MJX's Warp implementation does not batch."""
+    WARP_PER_MODEL is what MuJoCo Warp keeps one per model (its field spec has no leading per-world '*')."""
+    import dataclasses
+
     from mujoco.mjx._src.collision_driver import has_collision_fn
     from mujoco.mjx._src.types import GeomType
-    from mujoco.mjx.warp.types import _BATCH_DIM
+
+    mjw = pytest.importorskip("mujoco_warp")
+    spec = {f.name: f.type for f in dataclasses.fields(mjw.Model)}
 
     for wheel in ("sphere", "cylinder"):
         for ground in ("plane", "hfield", "box", "capsule", "cylinder"):
             a, b = sorted((GeomType[wheel.upper()], GeomType[ground.upper()]))
             assert has_collision_fn(a, b) == ((wheel, ground) not in course.JAX_CANNOT_COLLIDE), (wheel, ground)
     for name in course.WARP_PER_MODEL:
-        assert _BATCH_DIM["Model"][name] is False
+        assert spec[name].shape[0] != "*", name
+    assert spec["geom_size"].shape[0] == "*"  # a field MuJoCo Warp does batch, for contrast
 
 
 @pytest.mark.parametrize("obstacle, shape", [("step", "box"), ("terrain", "hfield")], ids=["step", "terrain"])

@@ -39,7 +39,10 @@ LAYERS = {
     "stepping": tuple(
         f"stepping.{m}" for m in ("", "fields", "batch", "rollout", "stats", "mission_stats", "motor_stats")
     ),
-    "engines": ("engines", "engines.common", "engines.mujoco", "engines.mjx", "engines.warp_build", "engines.warp"),
+    "engines": (
+        "engines", "engines.common", "engines.mujoco", "engines.mjx", "engines.warp_build", "engines.warp_physics",
+        "engines.warp",
+    ),  # fmt: skip
     # how many variants run, where, and where the results go
     "sweeping": tuple(
         f"sweeping.{m}" for m in ("", "storage", "spec", "results", "prestart", "chunks", "cluster", "gpus")

@@ -97,7 +97,7 @@ CHECK = textwrap.dedent(
         wp.init()
         cache = wp.config.kernel_cache_dir
         before = set(os.listdir(cache))
-        import mujoco.mjx.third_party.mujoco_warp as mjw
+        import mujoco_warp as mjw
         m = mjw.put_model(model)
         m.opt.warn_overflow = 0
         for name, size in batched.items():

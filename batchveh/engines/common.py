@@ -28,8 +28,9 @@ def has_gpu() -> bool:
 
 
 def warp_installed() -> bool:
-    """Whether MJX can use its Warp implementation (warp-lang importable)."""
+    """Whether the warp engine can run: MuJoCo Warp (mujoco-warp) and warp-lang importable."""
     try:
+        import mujoco_warp  # noqa: F401
         import warp  # noqa: F401
     except (ImportError, RuntimeError):
         return False

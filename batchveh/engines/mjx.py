@@ -34,8 +34,6 @@ class MjxEngine:
     """MJX on the default JAX device(s)."""
 
     name = "mjx"
-    impl = "jax"  # MJX's implementation (mjx.put_model's impl)
-    graph_mode: str | None = None  # MuJoCo Warp's CUDA graph capture (`batch.mjx_model`); None: MJX's default
 
     def __init__(
         self,
@@ -109,7 +107,7 @@ class MjxEngine:
         n = batch.n
         batch = pad(batch, self.chunk_size)
         with float_precision(self.precision), self._call_context():
-            mx, axes = mjx_model(batch, self.impl, self.graph_mode)
+            mx, axes = mjx_model(batch)
             dtype = jnp.result_type(float)
             params = {k: jnp.asarray(v, dtype) for k, v in batch.params.items()}
             if len(self.devices) > 1:

@@ -1,37 +1,39 @@
-"""The `warp` engine: MJX's Warp implementation (MuJoCo Warp, vendored in mujoco-mjx), float32.
+"""The `warp` engine: MuJoCo Warp (`mujoco_warp`) stepping every variant of a chunk as one world, float32.
 
-The same `jit(vmap(rollout))` as the `mjx` engine, with the statistics in the scan's
-carry: MJX hands the vmapped step to MuJoCo Warp as one batch of worlds, and the
-batched model fields (`batch.mjx_model(..., 'warp')`) as per-world fields. It
-collides every geom pair MuJoCo C does (cylinder wheels on boxes included).
+The same scan as the `mjx` engine (`rollout.physics_stats`: the controls, the drive, the tyre, the
+statistics in the carry, vmapped), with MuJoCo Warp itself as the physics (`engines/warp_physics.py`):
+its model and data stay on the device, the variant's parameters are its per-world model fields, and each
+step is one Warp call on all worlds, captured as a CUDA graph. It collides every geom pair MuJoCo C does
+(cylinder wheels on boxes included).
 
-- Solver health is data, not output: Warp's overflow and iteration-limit messages are
-  off, and the column `solver_limit_share` gives each variant's share of steps whose
-  solve stopped on `opt.iterations` rather than on the tolerance.
-- Contact buffers are sized per world (`contacts_per_world`); a world that runs out of
-  them (a vehicle on its back) is reported `diverged`.
-- One device: MuJoCo Warp's JAX call has no sharding rule (under `shard_map` over two
-  GPUs the process died), so a host with several GPUs runs one process per GPU
-  (`CUDA_VISIBLE_DEVICES`).
-- On the CPU it runs too (slowly): that is how CI checks it against MuJoCo C. Warp compiles
-  its kernels once per machine (about 30 s on 2 cores, kept in Warp's kernel cache).
+- Solver health is data, not output: the column `solver_limit_share` gives each variant's share of steps
+  whose solve stopped on `opt.iterations` rather than on the tolerance.
+- Contact buffers are sized per world (`contacts_per_world`); a world that runs out of them (a vehicle on
+  its back) is reported `diverged`.
+- One device: a host with several GPUs runs one process per GPU (`CUDA_VISIBLE_DEVICES`).
+- `deterministic`: MuJoCo Warp's `Option.deterministic` (stable contact order, canonical constraint rows,
+  invariant atomic sums), so that two runs give the same bits.
+- On the CPU it runs too (slowly): that is how CI checks it against MuJoCo C. Warp compiles its kernels
+  once per machine (kept in Warp's kernel cache).
 """
 
 from __future__ import annotations
 
-import threading
+import time
 from typing import Any
 
 import jax
+import jax.numpy as jnp
 import mujoco
 import numpy as np
 
 from batchveh.config import ConfigError
-from batchveh.engines.common import warp_installed
+from batchveh.engines.common import pad, warp_installed
 from batchveh.engines.mjx import MjxEngine
+from batchveh.model import course
 from batchveh.model.vehicle import layout
-from batchveh.stepping.batch import SAMEFRAME, WARP_UNREAD, VariantBatch, import_mjx
-from batchveh.stepping.rollout import mjx_stats
+from batchveh.stepping.batch import SAMEFRAME, WARP_UNREAD, VariantBatch
+from batchveh.stepping.rollout import float_precision, physics_stats
 
 # contacts a world may hold: 2 per cylinder wheel (MuJoCo Warp), 1 per sphere wheel, and room for a
 # chassis and hubs that touch the ground on a flipped vehicle
@@ -47,13 +49,61 @@ def constraint_rows(m: mujoco.MjModel, contacts: int) -> int:
     return int(np.count_nonzero(m.dof_frictionloss)) + limits + 6 * m.neq + contacts * per_contact
 
 
+class _View:
+    """One variant's view of a `WarpPhysics` for `rollout.physics_stats` (inside the vmap)."""
+
+    def __init__(self, phys, dt, body_mass, nu: int, nbody: int):
+        self.phys, self.dt, self.body_mass, self.nu, self.nbody = phys, dt, body_mass, nu, nbody
+        self.iterations = phys.iterations
+
+    def start(self):
+        return self.phys.start(self.nu, self.nbody, self.dt)
+
+    def step(self, d):
+        return self.phys.step(d)
+
+
+def batched_fields(batch: VariantBatch) -> dict[str, np.ndarray]:
+    """The chunk's model fields that MuJoCo Warp reads per world, each (n, ...); a field it keeps one per
+    model is refused (ConfigError) with what is allowed."""
+    import dataclasses
+
+    import mujoco_warp as mjw
+
+    per_world = {f.name for f in dataclasses.fields(mjw.Model) if getattr(f.type, "shape", (None,))[:1] == ("*",)}
+    options = {f.name for f in dataclasses.fields(mjw.Option)}
+    out = {}
+    for name, values in batch.fields.items():
+        if name in WARP_UNREAD or name in SAMEFRAME:
+            continue
+        if name.startswith("opt."):
+            ok = name[4:] in options
+        else:
+            ok = name in per_world and name not in course.WARP_PER_MODEL
+        if not ok:
+            raise ConfigError(
+                f"model field {name} is one per model in MuJoCo Warp, so the parameters that change it cannot vary "
+                "on the warp backend; allowed: the mujoco or mjx backend, or fixed values"
+            )
+        out[name] = values
+    return out
+
+
 class WarpEngine(MjxEngine):
-    """MJX's Warp implementation on the first JAX device (a CUDA GPU, or the CPU), float32."""
+    """MuJoCo Warp on the first JAX device (a CUDA GPU, or the CPU), float32."""
 
     name = "warp"
-    impl = "warp"
 
-    def __init__(self, scenario, cfg, chunk_size: int, precision: str = "f32", contacts_per_world: int = 0):
+    def __init__(
+        self,
+        scenario,
+        cfg,
+        chunk_size: int,
+        precision: str = "f32",
+        contacts_per_world: int = 0,
+        deterministic: bool = False,
+        graph_mode: str = "WARP",
+    ):
         if precision != "f32":
             raise ConfigError(
                 f"precision: {precision!r} is not available on the warp backend (MuJoCo Warp computes in float32); "
@@ -61,18 +111,22 @@ class WarpEngine(MjxEngine):
             )
         if not warp_installed():
             raise ConfigError(
-                "the warp backend needs warp-lang 1.18.0; allowed: pip install -e '.[gpu]' (or warp-lang==1.18.0), "
+                "the warp backend needs mujoco-warp and warp-lang; allowed: pip install -e '.[gpu]', "
                 "or the mjx or mujoco backend"
             )
         super().__init__(scenario, cfg, chunk_size, precision="f32")
         self.devices = self.devices[:1]
         self.chunk_size = chunk_size
         self.contacts_per_world = contacts_per_world or CONTACTS_PER_WORLD
-        # steps per iteration of the scan's loop: 2, 3 and 5 ran no faster than 1 on one H200 (11.06-11.11 s for
-        # 100,000 variants x 2,100 steps, benchmarks/results/archive.json: h200-warp-unroll.json) and compile longer
-        self.scan_unroll = 1
+        self.deterministic = int(deterministic)  # MuJoCo Warp's DeterminismType bits; True: all of them
+        if self.deterministic == 1 and deterministic is True:
+            import mujoco_warp as mjw
+
+            self.deterministic = int(mjw.DeterminismType.ALL)
+        self.graph_mode = graph_mode
+        self.warm_s = 0.0  # Warp's first launches of each new program (kernels loaded or built)
         self.ahead: dict[str, Any] = {}  # what building the kernels ahead took (warp_build.AheadBuild.wait)
-        self._built = None  # the AheadBuild of the program compiled last, until a chunk has run on it
+        self._phys: dict[Any, Any] = {}
         if self.devices[0].platform == "gpu":
             from batchveh.engines import warp_build
 
@@ -80,74 +134,108 @@ class WarpEngine(MjxEngine):
             # engine prepares its first chunk
             try:
                 if warp_build.enabled() and warp_build.may_spawn() and warp_build.cold():
-                    warp_build.start_workers(f"cuda:{self.devices[0].id}")
+                    warp_build.start_workers(self._device())
             except Exception:  # noqa: BLE001 - a head start only: the first launch builds what is missing
                 warp_build.stop_workers()
 
     @property
     def implementation(self) -> str:
+        import mujoco_warp
         import warp
 
-        return f"MuJoCo MJX {mujoco.__version__}, Warp implementation (MuJoCo Warp), warp-lang {warp.__version__}"
+        det = f", deterministic {self.deterministic}" if self.deterministic else ""
+        return f"MuJoCo Warp {mujoco_warp.__version__} (MuJoCo {mujoco.__version__}), warp-lang {warp.__version__}{det}"
 
-    def _call_context(self):
-        """Warp's own messages (initialisation, kernel loading) off, errors still shown: Warp's
-        scoped log level, restored when the chunk is done."""
-        import warp
+    def _device(self) -> str:
+        d = self.devices[0]
+        return "cpu" if d.platform == "cpu" else f"cuda:{d.id}"
 
-        return warp.ScopedLogLevel(warp.LOG_ERROR)
+    def _sizes(self, batch: VariantBatch) -> tuple[int, int]:
+        """(constraint rows per world, contacts of all worlds)."""
+        return constraint_rows(batch.model, self.contacts_per_world), batch.n * self.contacts_per_world
 
-    def _compiled(self, batch: VariantBatch, mx, axes, params):
-        """The chunk's program; on a GPU whose Warp kernel cache lacks this vehicle's kernels, worker processes
-        build them while JAX compiles (`warp_build`), and the first launch waits for them."""
-        ahead = None
-        first = (tuple(sorted(batch.fields)), batch.n) not in self._fn
-        if first and self.devices[0].platform == "gpu":
-            from batchveh.engines import warp_build
+    def _program(self, batch: VariantBatch, fields: dict[str, np.ndarray]):
+        """The chunk's WarpPhysics (its fields written) and the function of (dt, body_mass, params) to compile."""
+        from batchveh.engines.warp_physics import WarpPhysics
 
-            batched = {k: batch.n for k in batch.fields if k not in WARP_UNREAD and k not in SAMEFRAME}
-            sizes = (constraint_rows(batch.model, self.contacts_per_world), self.contacts_per_world)
-            device = f"cuda:{self.devices[0].id}"
-            try:
-                if warp_build.wanted(batch.model, batched, *sizes):
-                    ahead = warp_build.AheadBuild(batch.model, batched, *sizes, device=device)
-                else:
-                    warp_build.stop_workers()  # started with the engine, not needed for this model
-                    if warp_build.thread_wanted(batch.model, batched, *sizes):
-                        threading.Thread(target=warp_build.load_file_modules, args=(device,), daemon=True).start()
-            except Exception:  # noqa: BLE001 - a head start only: the first launch builds what is missing
-                ahead = None
-                warp_build.stop_workers()
+        mjm = batch.model
+        njmax, naconmax = self._sizes(batch)
+        phys = WarpPhysics(
+            mjm, batch.n, tuple(fields), naconmax=naconmax, njmax=njmax, device=self._device(),
+            graph_mode=self.graph_mode, deterministic=self.deterministic,
+        )  # fmt: skip
+        phys.load(fields)
+        lay = layout(mjm)
+        scenario, cfg = self.scenario, self.cfg
+
+        def one(dt, body_mass, p):
+            view = _View(phys, dt, body_mass, mjm.nu, mjm.nbody)
+            return physics_stats(view, p, scenario=scenario, cfg=cfg, lay=lay)
+
+        return phys, jax.vmap(one, in_axes=(0, 0, 0))
+
+    def _ahead(self, batch: VariantBatch, fields):
+        """On a GPU whose Warp kernel cache lacks this vehicle's kernels: worker processes build them while JAX
+        compiles (`warp_build`), and the first launch loads them. None where nothing is built ahead."""
+        if self.devices[0].platform != "gpu":
+            return None
+        from batchveh.engines import warp_build
+
+        batched = {k: batch.n for k in fields}
+        njmax, naconmax = self._sizes(batch)
+        args = (batch.model, batched, njmax, naconmax)
         try:
-            compiled = super()._compiled(batch, mx, axes, params)
-        finally:
-            if ahead is not None:
-                self.ahead = ahead.wait()
-        self._built = ahead  # its marker is written once a chunk has run on the compiled program
-        return compiled
+            if warp_build.wanted(*args, self.deterministic):
+                return warp_build.AheadBuild(*args, device=self._device(), deterministic=self.deterministic)
+            warp_build.stop_workers()  # started with the engine, not needed for this model
+            if warp_build.thread_wanted(*args, self.deterministic):
+                import threading
+
+                threading.Thread(target=warp_build.load_file_modules, args=(self._device(),), daemon=True).start()
+        except Exception:  # noqa: BLE001 - a head start only: the first launch builds what is missing
+            warp_build.stop_workers()
+        return None
+
+    def _inputs(self, batch: VariantBatch, fields) -> tuple[jax.Array, jax.Array]:
+        n, mjm = batch.n, batch.model
+        dt = fields.get("opt.timestep", np.full(n, mjm.opt.timestep))
+        mass = fields.get("body_mass", np.broadcast_to(mjm.body_mass, (n, mjm.nbody)))
+        return jnp.asarray(np.reshape(dt, n), jnp.float32), jnp.asarray(mass, jnp.float32)
 
     def run(self, batch: VariantBatch) -> dict[str, np.ndarray]:
-        try:
-            out = super().run(batch)
-        except BaseException:
-            self._built = None  # no chunk ran: no marker
-            raise
-        built, self._built = self._built, None
-        if built is not None:  # the first chunk ran: this vehicle's kernels are all in Warp's cache now
-            built.done()
-        return out
+        n = batch.n
+        batch = pad(batch, self.chunk_size)
+        course.check_backend(batch.model, "warp")
+        with float_precision("f32"), _quiet():
+            fields = batched_fields(batch)
+            key = (tuple(sorted(batch.fields)), batch.n)
+            dt, mass = self._inputs(batch, fields)
+            params = {k: jnp.asarray(v, jnp.float32) for k, v in batch.params.items()}
+            ahead = None
+            if key not in self._fn:
+                ahead = self._ahead(batch, fields)
+                try:
+                    phys, prog = self._program(batch, fields)
+                    t0 = time.perf_counter()
+                    compiled = jax.jit(prog).lower(dt, mass, params).compile()
+                    self.compile_s += time.perf_counter() - t0
+                finally:
+                    if ahead is not None:
+                        self.ahead = ahead.wait()
+                t0 = time.perf_counter()
+                phys.warm()  # every kernel loaded before Warp captures a graph
+                self.warm_s += time.perf_counter() - t0
+                self._fn[key], self._phys[key] = compiled, phys
+            else:
+                self._phys[key].load(fields)
+            out = jax.device_get(self._fn[key](dt, mass, params))
+        if ahead is not None:  # the first chunk ran: this vehicle's kernels are all in Warp's cache now
+            ahead.done()
+        return {k: np.asarray(v)[:n] for k, v in out.items()}
 
-    def _program(self, batch: VariantBatch, mx, axes):
-        mjx = import_mjx()
-        lay = layout(batch.model)
-        data = mjx.make_data(
-            batch.model,
-            impl="warp",
-            naconmax=batch.n * self.contacts_per_world,
-            njmax=constraint_rows(batch.model, self.contacts_per_world),
-        )
 
-        one = lambda m, p: mjx_stats(  # noqa: E731
-            m, p, scenario=self.scenario, cfg=self.cfg, lay=lay, data=data, unroll=self.scan_unroll
-        )
-        return jax.vmap(one, in_axes=(axes, 0))
+def _quiet():
+    """Warp's own messages (initialisation, kernel loading) off, errors still shown."""
+    import warp
+
+    return warp.ScopedLogLevel(warp.LOG_ERROR)

@@ -36,7 +36,7 @@ import numpy as np
 
 from batchveh.engines.common import spawn_safe
 
-MUJOCO_WARP = "mujoco.mjx.third_party.mujoco_warp"
+MUJOCO_WARP = "mujoco_warp"
 # parts of the step, each run in a process of its own, longest first: the constraint solver (two
 # libmathdx tile Cholesky solves), the smooth acceleration's factor-solve of M (another), collision,
 # the constraint rows, passive forces. None of them launches the per-file modules' kernels that
@@ -86,10 +86,10 @@ STRUCTURE = (
 )
 
 
-def key(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int) -> str:
+def key(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int, deterministic: int = 0) -> str:
     """What decides which kernels MuJoCo Warp makes for a model: MuJoCo's and Warp's versions, the
     model's sizes, types and options, the batched fields with their leading sizes, the constraint
-    and contact buffers (hashed)."""
+    and contact buffers and the determinism bits (hashed)."""
     import warp
 
     opt = model.opt
@@ -103,6 +103,7 @@ def key(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: in
         sorted(sized(batched).items()),
         njmax,
         naconmax,
+        *([deterministic] if deterministic else []),
     ]
     return hashlib.sha256(repr(parts).encode()).hexdigest()[:16]
 
@@ -160,10 +161,12 @@ class AheadBuild:
     """The workers building one model's kernels; `wait` for them, then `done` once the engine's
     first chunk has run (writes the marker)."""
 
-    def __init__(self, model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int, device: str):
-        self.marker = marker(key(model, batched, njmax, naconmax))
+    def __init__(
+        self, model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int, device: str, deterministic=0
+    ):
+        self.marker = marker(key(model, batched, njmax, naconmax, deterministic))
         self.start, self.created = time.perf_counter(), time.time()
-        payload = pickle.dumps((model, sized(batched), njmax, naconmax))
+        payload = pickle.dumps((model, sized(batched), njmax, naconmax, deterministic))
         tasks = [("stage", s) for s in STAGES] + [("module", m) for m in FILE_MODULES]
         pool = _workers()
         self.results = [pool.apply_async(_build, (kind, name, payload, device)) for kind, name in tasks]
@@ -205,29 +208,37 @@ class AheadBuild:
 
 
 def enabled() -> bool:
-    """Whether kernels are built ahead at all (BATCHVEH_WARP_PREBUILD=0: each at its first launch)."""
-    return os.environ.get("BATCHVEH_WARP_PREBUILD", "1") != "0"
+    """Whether kernels are built ahead in worker processes (BATCHVEH_WARP_PREBUILD=0: each at its first launch;
+    =threads: Warp's own parallel loading of the per-file modules, `load_file_modules`, and nothing else)."""
+    return os.environ.get("BATCHVEH_WARP_PREBUILD", "1") not in ("0", "threads")
 
 
-def wanted(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int) -> bool:
+def threads_only() -> bool:
+    """BATCHVEH_WARP_PREBUILD=threads: Warp's own parallel module loading on a thread instead of the workers."""
+    return os.environ.get("BATCHVEH_WARP_PREBUILD") == "threads"
+
+
+def wanted(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int, deterministic=0) -> bool:
     """Whether this model's kernels still need building on this machine (no marker in Warp's cache),
     in worker processes (`may_spawn`; where it is False, `thread_wanted` says whether a thread loads them)."""
-    return enabled() and may_spawn() and not built(model, batched, njmax, naconmax)
+    return enabled() and may_spawn() and not built(model, batched, njmax, naconmax, deterministic)
 
 
-def thread_wanted(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int) -> bool:
+def thread_wanted(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int, deterministic=0) -> bool:
     """Whether this process should run `load_file_modules` on a thread: this model's kernels not built on this
     machine yet (no marker), and no worker process may be spawned here (a daemonic `gpus` worker, an unguarded
     script). On a machine that built them the first launch loads them from Warp's cache, as in a process that
     may spawn: the thread's module hashing then only took the GIL from JAX's trace (on two H100s a `gpus`
     worker's first chunk, with the thread, took 0.0-2.7 s longer than the driver's, its trace and compile-cache
     load 0.2-1.6 s longer: h100x2-gpu-processes-prestart.json and the files before it)."""
-    return enabled() and not may_spawn() and not built(model, batched, njmax, naconmax)
+    return (threads_only() or (enabled() and not may_spawn())) and not built(
+        model, batched, njmax, naconmax, deterministic
+    )
 
 
-def built(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int) -> bool:
+def built(model: mujoco.MjModel, batched: dict[str, int], njmax: int, naconmax: int, deterministic=0) -> bool:
     """Whether this model's kernels were built on this machine: its marker is in Warp's kernel cache."""
-    return os.path.exists(marker(key(model, batched, njmax, naconmax)))
+    return os.path.exists(marker(key(model, batched, njmax, naconmax, deterministic)))
 
 
 def may_spawn() -> bool:
@@ -312,9 +323,10 @@ def _world(mjw, payload: bytes):
     if key_ not in _WORLD:
         import warp
 
-        model, batched, njmax, naconmax = pickle.loads(payload)
+        model, batched, njmax, naconmax, deterministic = pickle.loads(payload)
         m = mjw.put_model(model)
-        m.opt.warn_overflow = 0  # as batch.mjx_model sets it: the value is baked into three kernels
+        m.opt.warn_overflow = 0  # as WarpPhysics sets it: the value is baked into three kernels
+        m.opt.deterministic = deterministic  # so is the choice of deterministic kernels
         for field, size in batched.items():  # batched fields with the chunk's leading size (it keys the broadphase)
             owner, attr = (m.opt, field[4:]) if field.startswith("opt.") else (m, field)
             a = getattr(owner, attr)

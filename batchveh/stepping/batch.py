@@ -406,57 +406,30 @@ def import_mjx():
     return mjx
 
 
-# Fields a structural sweep changes that MuJoCo Warp never reads for this vehicle: the mass matrix
+# Fields a structural sweep changes that MuJoCo Warp never reads for this vehicle (the warp engine leaves them
+# out of its per-world fields): the mass matrix
 # diagonal at qpos0 (nothing in mujoco_warp reads dof_M0), the dofs' lengths (read only by sleeping,
 # which is off) and the mesh bounding volumes (the vehicle has no mesh). They stay at the base values.
 WARP_UNREAD = ("dof_M0", "dof_length", "bvh_aabb")
 
 
-def mjx_model(batch: VariantBatch, impl: str = "jax", graph_mode: str | None = None) -> tuple[Any, Any]:
-    """The MJX model with batched fields, and its `in_axes` tree (0 where a field varies).
+def mjx_model(batch: VariantBatch) -> tuple[Any, Any]:
+    """The MJX model (JAX implementation) with batched fields, and its `in_axes` tree (0 where a field varies).
 
-    impl: 'jax' (MJX's JAX implementation) or 'warp' (MuJoCo Warp inside MJX, float32). The Warp
-    model keeps some fields in its own shapes (geom_aabb as (ngeom, 2, 3)): a batched field is
-    reshaped to the model's. Its overflow and iteration-limit messages are switched off: the
-    engine reports them per variant instead (`rollout.solver_at_limit`). graph_mode: how MuJoCo
-    Warp's calls are captured in CUDA graphs (a name of `warp.JaxCallableGraphMode`; None: MJX's
-    default)."""
+    The warp engine does not use it: it writes the fields into MuJoCo Warp's own per-world model
+    (engines/warp_physics.py)."""
     import jax
     import jax.numpy as jnp
 
     mjx = import_mjx()
-    course.check_backend(batch.model, "mjx" if impl == "jax" else impl)
-    m = mjx.put_model(batch.model, impl=impl)
-    if impl == "warp":
-        private = {"warn_overflow": 0}
-        if graph_mode is not None:
-            import warp
-
-            private["graph_mode"] = warp.JaxCallableGraphMode[graph_mode]
-        m = m.replace(opt=m.opt.replace(_impl=m.opt._impl.replace(**private)))
+    course.check_backend(batch.model, "mjx")
+    m = mjx.put_model(batch.model, impl="jax")
     axes = jax.tree_util.tree_map(lambda _: None, m)
-    public = {f.name for f in type(m).fields()}
     opt, opt_axes = {}, {}
     top, top_axes = {}, {}
     for name, values in batch.fields.items():
         if name.startswith("opt."):
             opt[name[4:]], opt_axes[name[4:]] = jnp.asarray(values), 0
-            continue
-        if impl == "warp":
-            if name in WARP_UNREAD or name in SAMEFRAME:
-                continue
-            if name in course.WARP_PER_MODEL:
-                raise ConfigError(
-                    f"model field {name} is one per model in MJX's Warp implementation, so the parameters that "
-                    "change it cannot vary on the warp backend; allowed: the mujoco or mjx backend, or fixed values"
-                )
-            current = getattr(m, name, None) if name in public else None
-            if current is None or current.size * batch.n != values.size:
-                raise ConfigError(
-                    f"model field {name} cannot vary per variant in MJX's Warp implementation, so the parameters "
-                    "that change it cannot vary on the warp backend; allowed: the mujoco backend, or fixed values"
-                )
-            top[name], top_axes[name] = jnp.asarray(values.reshape(batch.n, *current.shape), current.dtype), 0
             continue
         if isinstance(getattr(m, name, None), np.ndarray):
             raise ConfigError(

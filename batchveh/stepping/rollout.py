@@ -50,13 +50,36 @@ def host_cpu() -> jax.Device:
     return jax.devices("cpu")[0]
 
 
-def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: Layout, body_out, motors=None):
+class MjxPhysics:
+    """The physics of one variant's scan in MJX (either implementation): what `physics_stats` needs of it.
+
+    The protocol (WarpPhysics' view, engines/warp_physics.py, is the other): `dt`, `body_mass`, `iterations`
+    (the solver's limit where the implementation reports its iteration count, else None), `start()` (the
+    first data, forwarded) and `step(d)`."""
+
+    def __init__(self, model: mjx.Model, data: mjx.Data | None = None):
+        self.model, self.data = model, data
+        self.dt, self.body_mass = model.opt.timestep, model.body_mass
+        # MuJoCo Warp records its solver's iteration count per world; MJX's JAX solver leaves it at 0
+        self.iterations = model.opt.iterations if model.impl == mjx.Impl.WARP else None
+
+    def start(self) -> mjx.Data:
+        """The initial data at the variant's own qpos0 (a swept chassis position moves it), forwarded."""
+        m, d = self.model, self.data
+        d0 = mjx.make_data(m) if d is None else d.replace(qpos=m.qpos0.astype(d.qpos.dtype))
+        return mjx.forward(m, d0)
+
+    def step(self, d: mjx.Data) -> mjx.Data:
+        return mjx.step(self.model, d)
+
+
+def _scan(phys, params: Mapping[str, Any], scenario: Scenario, lay: Layout, body_out, motors=None):
     """The scan's body over ((data, tyre state, drive state), reductions). `body_out(d, acc, sample, i)`
     returns ((d, acc), output) as a scan body would. With dcmotors, the drive (model/drive.py) turns the
     scenario's servo controls into each motor's voltage, step by step."""
     ctrl_fn = controls_fn(scenario)
     forces_fn = body_forces_fn(scenario)  # a mission's slope in time; None otherwise
-    dt = model.opt.timestep
+    dt = phys.dt
     tp = wheels.params(params, lay.wheel_ground, jnp)
 
     damping = servo_damping(params, scenario.towing, xp=jnp, dcmotor=lay.dcmotor)
@@ -73,14 +96,14 @@ def _scan(model: mjx.Model, params: Mapping[str, Any], scenario: Scenario, lay: 
             sim_ctrl, ds, record = drive.step(ds, ctrl, q_steer, qvel, dc, dt, jnp)
         xfrc = None
         if forces_fn is not None:
-            xfrc = forces_fn(params, model.body_mass, i * dt).astype(d.xfrc_applied.dtype)
+            xfrc = forces_fn(params, phys.body_mass, i * dt).astype(d.xfrc_applied.dtype)
         if tp is not None:
             ts, on_wheels = tyre_step(d, ts, tp, lay, dt)
             xfrc = on_wheels if xfrc is None else xfrc + on_wheels
         if xfrc is not None:
             d = d.replace(xfrc_applied=xfrc)
         qvel_prev = d.qvel
-        d = mjx.step(model, d.replace(ctrl=sim_ctrl.astype(d.ctrl.dtype)))
+        d = phys.step(d.replace(ctrl=sim_ctrl.astype(d.ctrl.dtype)))
         dv = take(d.qvel - qvel_prev, lay.motor_dof)
         electric = None
         if motors is not None:  # the dcmotors' electrical sample (motor_stats), a block of one step
@@ -104,29 +127,18 @@ def tyre_step(d: mjx.Data, ts, tp, lay: Layout, dt):
     return ts, xfrc.astype(d.xfrc_applied.dtype)
 
 
-def _init(model: mjx.Model, d0: mjx.Data, params: Mapping[str, Any], lay: Layout):
+def _init(phys, params: Mapping[str, Any], lay: Layout):
     """The scan's first (data, wheel-ground state, drive state). The data is forwarded, as MuJoCo C's is
     before its first step: a wheel-ground model reads the last forward pass's positions and contact forces,
     and those of unforwarded data are zeros (the soil saw each wheel sunk to its axle). The drive's state
     (dcmotors): its loops' integrals at 0, each winding at its start rise."""
+    d0 = phys.start()
     dtype = d0.qvel.dtype
     ds = ()
     if lay.dcmotor:
         rise = (params["motors.drive_start_rise"], params["motors.steer_start_rise"])
         ds = drive.init(drive.constants(params, jnp, dtype), rise, jnp, dtype)
-    return mjx.forward(model, d0), wheels.init_state((), jnp, dtype), ds
-
-
-def reports_solver_iterations(model: mjx.Model) -> bool:
-    """Whether the implementation records its solver's iteration count: MuJoCo Warp does (per
-    world, `solver_niter`); MJX's JAX solver leaves the field at 0."""
-    return model.impl == mjx.Impl.WARP
-
-
-def solver_at_limit(model: mjx.Model, d: mjx.Data) -> jax.Array:
-    """Whether the step's constraint solve used every one of `opt.iterations`, so that it stopped
-    on the limit rather than on the tolerance (MuJoCo Warp: the implementation's own data part)."""
-    return d._impl.solver_niter >= model.opt.iterations
+    return d0, wheels.init_state((), jnp, dtype), ds
 
 
 def mjx_stats(
@@ -139,36 +151,37 @@ def mjx_stats(
     data: mjx.Data | None = None,
     unroll: int = 1,
 ) -> dict[str, jax.Array]:
-    """Statistics columns of one variant (pure; vmap it over a batched model), and, where the
-    implementation reports it, `solver_limit_share`: the share of steps whose solve ran out of
-    iterations.
+    """Statistics columns of one variant in MJX (pure; vmap it over a batched model): `physics_stats`.
 
     data: the initial data (MJX's Warp implementation makes it from the base MjModel); default
-    `mjx.make_data(model)`. Either way it starts at the variant's own qpos0 (a swept chassis
-    position moves it). unroll: steps per iteration of the scan's loop (`lax.scan`'s)."""
-    dtype = model.opt.timestep.dtype
-    health = reports_solver_iterations(model)
+    `mjx.make_data(model)`. Either way it starts at the variant's own qpos0."""
+    return physics_stats(MjxPhysics(model, data), params, scenario=scenario, cfg=cfg, lay=lay, unroll=unroll)
+
+
+def physics_stats(
+    phys, params: Mapping[str, Any], *, scenario: Scenario, cfg: stats.StatsConfig, lay: Layout, unroll: int = 1
+) -> dict[str, jax.Array]:
+    """Statistics columns of one variant (pure; vmap it), and, where the implementation reports it,
+    `solver_limit_share`: the share of steps whose solve used all of its iterations (stopped on the
+    limit rather than the tolerance). phys: the variant's physics (`MjxPhysics`' protocol). unroll: steps
+    per iteration of the scan's loop (`lax.scan`'s)."""
+    dtype = phys.dt.dtype
+    health = phys.iterations is not None
 
     def out(d, carry, s, i):
         acc, at_limit = carry
         block = jax.tree_util.tree_map(lambda v: v[None], s)  # a block of one step: time axis -2
         if health:
-            at_limit = at_limit + solver_at_limit(model, d).astype(jnp.int32)
+            at_limit = at_limit + (d._impl.solver_niter >= phys.iterations).astype(jnp.int32)
         return (d, (stats.update(acc, block, i[None], cfg, xp=jnp), at_limit)), None
 
-    body = _scan(model, params, scenario, lay, out, cfg.motors)
-    d0 = _start(model, data)
-    init = (_init(model, d0, params, lay), (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
+    body = _scan(phys, params, scenario, lay, out, cfg.motors)
+    init = (_init(phys, params, lay), (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
     (_, (acc, at_limit)), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps), unroll=unroll)
     cols = stats.finalize(acc, cfg, xp=jnp)
     if health:
         cols["solver_limit_share"] = at_limit.astype(dtype) / cfg.n_steps
     return cols
-
-
-def _start(model: mjx.Model, data: mjx.Data | None) -> mjx.Data:
-    """The initial data, at the variant's own qpos0."""
-    return mjx.make_data(model) if data is None else data.replace(qpos=model.qpos0.astype(data.qpos.dtype))
 
 
 def mjx_series(
@@ -185,9 +198,9 @@ def mjx_series(
     def out(d, acc, s, i):
         return (d, acc), s
 
-    body = _scan(model, params, scenario, lay, out)
-    d0 = _start(model, data)
-    _, series = jax.lax.scan(body, (_init(model, d0, params, lay), ()), jnp.arange(n_steps))
+    phys = MjxPhysics(model, data)
+    body = _scan(phys, params, scenario, lay, out)
+    _, series = jax.lax.scan(body, (_init(phys, params, lay), ()), jnp.arange(n_steps))
     return series
 
 
