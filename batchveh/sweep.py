@@ -412,7 +412,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--backend",
         choices=("auto", "mujoco", "mjx", "warp"),
-        help="auto: warp (MJX's Warp implementation) on a CUDA GPU with warp-lang installed, mjx (MJX's JAX "
+        help="auto: warp (MuJoCo Warp) on a CUDA GPU with mujoco-warp installed, mjx (MJX's JAX "
         "implementation) on another GPU, else mujoco (MuJoCo C on the CPU threads)",
     )
     parser.add_argument("--resume", action="store_true", help="keep finished chunks and run the rest")

@@ -188,34 +188,120 @@ def _gpu_start(d: dict) -> str:
 
 
 def _gpu_processes(*docs: dict) -> str:
-    """--executor gpus on two GPUs against one GPU in-process, per file (machine): the 1M pairs, the 100k pairs."""
-
-    def one(d):
-        cards = d["machine"]["gpus"][0].split(",")[0].removeprefix("NVIDIA ").replace(" 80GB HBM3", "")
-        big = [p for p in d["pairs"] if p["what"] in ("1m", "1m_env") and d["steps"][p["gpus"]].get("process_s")]
-        small = [p for p in d["pairs"] if p["what"] == "100k"]
-        env = ", ".join(f"{k}={v}" for k, v in d.get("gpus_env", {}).items())
-        walls = "; ".join(
-            f"{d['steps'][p['gpus']]['process_s']:.1f} s against {d['steps'][p['local']]['process_s']:.1f} s, "
-            f"**{p['process_ratio']:.3f}x**{f' ({env})' if p['what'] == '1m_env' else ''}"
-            for p in big
-        )
-        chunks = {d["steps"][p["gpus"]]["chunks"] for p in big}
-        sizes = "/".join(map(str, sorted(chunks)))
-        text = f"two {cards}s, code {d['code'].split()[0]}: 1,000,000 x 10 s in {sizes} chunks: {walls}"
-        if small:
-            ratios = ", ".join(f"{p['process_ratio']:.2f}x" for p in small)
-            text += f"; 100,000 x 10 s (one chunk, in-process) {ratios}"
-        return text
-
-    return " | ".join(one(d) for d in docs)
-
+    """--executor gpus on two GPUs against one GPU in-process: the range and median of the 1M pairs. Each pair's
+    walls, code and the environment set for its workers are in its file."""
+    ratios = sorted(
+        p["process_ratio"]
+        for d in docs
+        for p in d["pairs"]
+        if p["what"] in ("1m", "1m_env") and d["steps"][p["gpus"]].get("process_s")
+    )
+    cards = docs[0]["machine"]["gpus"][0].split(",")[0].removeprefix("NVIDIA ").replace(" 80GB HBM3", "")
+    return (
+        f"1,000,000 x 10 s on two {cards}s: **{ratios[0]:.3f}-{ratios[-1]:.3f}x one GPU's time, median "
+        f"{ratios[len(ratios) // 2]:.3f}x** ({len(ratios)} pairs)"
+    )
 
 H200 = "one H200 (nvidia-h200 kind), 16 cores"
 DC_COMPARED = ("current_rms", "winding_temp_rise", "energy_drawn", "speed_shortfall")
 H200_UNNAMED = "one H200 (nvidia-h200 kind; the file names no GPU)"
 TWO_CORES = "this project's 2-core machine"
+
+def _native(d: dict) -> str:
+    """The warp engine against MuJoCo Warp alone, same process (benchmarks/warp_native.py)."""
+    alone = bench_row(d, "MuJoCo Warp alone")["rate"]
+    eng = [r for r in d["rows"] if r["name"].startswith("warp engine") and "rate" in r]
+    others = "; ".join(f"{r['name'][12:]} {r['ratio_to_alone']:.3f}x" for r in eng[1:])
+    return (
+        f"engine **{g(eng[0]['rate'])}** against MuJoCo Warp alone {g(alone)}: **{eng[0]['ratio_to_alone']:.3f}x**"
+        + (f" ({others})" if others else "")
+    )
+
+
+def _e2e_native(*ds: dict) -> str:
+    def one(d):
+        runs = {k: [r for r in d["runs"] if r["kind"] == k] for k in ("first", "cold", "warm")}
+        warm = " / ".join(f"{r['wall_s']:.1f}" for r in runs["warm"])
+        sweep = " / ".join(f"{r['sweep_wall_s']:.1f}" for r in runs["warm"])
+        return f"first run **{runs['first'][0]['wall_s']:.1f} s**, warm **{warm} s** (the sweep {sweep} s)"
+
+    return "; ".join(one(d) for d in ds)
+
+
+def _first_native(d: dict) -> str:
+    by = {r["way"]: r for r in d["runs"] if r["kind"] == "first"}
+    return ", ".join(f"{w} **{by[w]['wall_s']:.1f} s**" for w in ("ahead", "threads", "serial") if w in by)
+
+
+def _reruns(native: dict, det: dict, xladet: dict, alone: dict) -> str:
+    r = native["reruns"]["default"]
+    big = r["largest"]
+    torque = max(v for k, v in big.items() if k.startswith(("drive_", "steer_")) and "energy" not in k
+                 and "power" not in k)  # fmt: skip
+    energy = max(v for k, v in big.items() if k.endswith("_energy"))
+    a0 = alone["rows"][0]
+    d7 = next(x for x in det["rows"] if x["name"] == "warp engine det=7")
+    d0 = next(x for x in det["rows"] if x["name"] == "warp engine default")
+    x7 = next(x for x in xladet["rows"] if x["name"] == "warp engine det=7")
+    return (
+        f"two runs of one {native['size']:,}-variant chunk: **{r['differ']} of {r['columns']} columns differ** "
+        f"(torques by at most {torque:.1e} N m, energies {energy:.3f} J; status, slipping, steady and "
+        "solver_limit_share equal); MuJoCo Warp alone: "
+        f"{a0['qfrc_actuator_worlds_differ']:,} of {alone['size']:,} worlds differ after {alone['steps']} steps "
+        f"(qfrc_actuator {a0['qfrc_actuator_largest']:.1e}); Option.deterministic 7: still "
+        f"{det['reruns']['det=7']['differ']} columns differ, at {d7['rate'] / d0['rate']:.3f}x the default rate "
+        f"({det['size']:,} worlds; {x7['rate'] / xladet['rows'][1]['rate']:.3f}x at {xladet['size']:,} with XLA's "
+        "deterministic ops), and it cannot allocate at 32,768"
+    )
+
 ROWS = [
+    Row(
+        "The warp engine (MuJoCo Warp 4.0 as its physics: slip tyre, drive, statistics) against MuJoCo Warp alone "
+        "(its step in CUDA graphs of 50 steps, no statistics), 131,072 variants x 1,100 steps, same model and process",
+        ["h100-warp-native.json"],
+        _native,
+        lambda d: gpu_of(d["machine"]),
+        "`python benchmarks/warp_native.py --size 131072 --modes default det=3`",
+    ),
+    Row(
+        "Warp float32 (MuJoCo Warp 4.0) against MuJoCo C 4.0 float64 (tolerance 1e-12), bench.py's 256-variant "
+        "sample, the variants that do not slip",
+        ["h100-ref-warp-native.json", "cpu-2core-ref-warp-native.json"],
+        lambda g_, c: "; ".join(
+            f"{where}: wheel mean p99 **{d['accuracy_vs_c']['noslip_wheel_mean']['p99']:.2e}**, wheel peak p99 "
+            f"{d['accuracy_vs_c']['noslip_wheel_peak']['p99']:.2e}, four-wheel sum mean p99 "
+            f"{d['accuracy_vs_c']['noslip_sum_mean']['p99']:.1e}"
+            for where, d in (("GPU", g_), ("MuJoCo Warp on the CPU", c))
+        ),
+        "one H100 (warp), its 16 cores (C); this project's 2-core machine",
+        "`python benchmarks/warp_native.py --size 131072 --ref 256 --modes default`",
+    ),
+    Row(
+        "End to end on MuJoCo Warp 4.0: `python -m batchveh.sweep benchmarks/slope_100k.yaml` (100,000 x 10 s), "
+        "fresh processes",
+        ["h100-end-to-end-slope_100k.json", "h100-end-to-end-slope_100k-2.json"],
+        _e2e_native,
+        "two fresh H100 hosts, 16 cores each",
+        "`python benchmarks/end_to_end.py benchmarks/slope_100k.yaml --warm 2`",
+    ),
+    Row(
+        "The first run on a fresh machine (the same sweep), each way on empty caches of its own: kernels built ahead "
+        "by worker processes (`engines/warp_build.py`), by Warp's own parallel loading (threads), or at first launch",
+        ["h100-first-gpu-run-native.json"],
+        _first_native,
+        "one H100, 16 cores",
+        "`python benchmarks/gpu_start.py benchmarks/slope_100k.yaml --fresh --ways serial,ahead,threads "
+        "--warm-runs 0`",
+    ),
+    Row(
+        "Reruns on a GPU: the warp engine's columns, MuJoCo Warp alone, and MuJoCo Warp's Option.deterministic",
+        ["h100-warp-native.json", "h100-det-warp-native.json", "h100-det-xladet-warp-native.json",
+         "h100-determinism.json"],
+        _reruns,
+        "one H100",
+        "`python benchmarks/warp_native.py --size 8192 --steps 400 --modes default det=7`; "
+        "`python benchmarks/determinism.py`",
+    ),  # fmt: skip
     Row(
         "The README's main job, `sweeps/slope.yaml` (10,602 variants x 5 s, slip tyre, MuJoCo C), runs in a "
         "fresh clone",
@@ -338,9 +424,7 @@ ROWS = [
         ],
         _gpu_processes,
         "two H100s, six fresh hosts, 32 cores each",
-        "`python benchmarks/ray_gpus.py --gpu-processes OUT --rounds-1m 2 --rounds-100k 0 --warmup-n 0 "
-        "--warm-chunks 125184,100096` (the third file: `--rounds-1m 1 --gpus-env BATCHVEH_PRESTART=0`; the fifth: "
-        "`--rounds-1m 1 --gpus-env JAX_CUDA_VISIBLE_DEVICES=0`)",
+        "`python benchmarks/ray_gpus.py --gpu-processes OUT --rounds-1m 2` (each file's `command`)",
     ),
     Row(
         "The worker started before the command line's imports (`prestart`) against at the executor's start, "
@@ -368,15 +452,15 @@ ROWS = [
         "100k_ray,100k_local,100k_ray_2,100k_local_2,100k_ray_3,100k_local_3`",
     ),
     Row(
-        "A sweep over the vehicle itself: 1,000,000 variants x 10 s, LHS, with payload mass and wheel radius "
-        "against without, warp",
-        ["h200-structural-sweep.json"],
+        "A sweep over the vehicle itself: 1,000,000 variants x 10 s, random, with payload mass and wheel radius "
+        "against without, warp (MuJoCo Warp 4.0), fresh processes",
+        ["h100-structural-sweep.json"],
         lambda d: (
             f"**{d['ratio']:.3f}x** ({d['median_process_s']['structural']:.1f} s against "
             f"{d['median_process_s']['flat']:.1f} s)"
         ),
         lambda d: gpu_of(d["machine"]),
-        "`python benchmarks/structural.py sweep --size 1000000 --time 10 --repeat 1 --backend warp --lhs`",
+        "`python benchmarks/structural.py sweep --size 1000000 --time 10 --repeat 1 --backend warp`",
     ),
     Row(
         "The same on MuJoCo C: 3,000 random variants x 1 s, alternated",
@@ -397,13 +481,13 @@ ROWS = [
     ),
     Row(
         "Structural variants, warp float32 against MuJoCo C float64, 4,096 random variants x 10 s",
-        ["h200-warp-vs-cpu-2core-c-fixed-structural-compare.json"],
+        ["h100-warp-vs-cpu-2core-c-structural-compare.json"],
         lambda d: (
             "per-wheel mean p99 **"
             + f"{max(v['p99'] for k, v in d['per_wheel'].items() if k.endswith('_mean')):.2%}**, low-pass peak p99 "
             + f"{max(v['p99'] for k, v in d['per_wheel'].items() if k.endswith('_lp_all')):.1e}"
         ),
-        "one H200 (warp); 2 cores (C)",
+        "one H100 (warp, MuJoCo Warp 4.0); 2 cores (C 4.0)",
         "`python benchmarks/structural.py compare WARP_RESULTS C_RESULTS` on two runs of "
         "`benchmarks/structural_warp_vs_c.yaml`",
     ),
@@ -420,7 +504,7 @@ ROWS = [
             + f"{d['vehicle']['bus_energy_wh']['p99']:.1e}; motor_status agrees on "
             + f"{d['motor_status_agree']:.2%}"
         ),
-        "one H100 (warp); 2 cores (C)",
+        "one H100 (warp, MuJoCo Warp 4.0); 2 cores (C 4.0)",
         "`python benchmarks/motors.py compare WARP_RESULTS C_RESULTS` on two runs of "
         "`benchmarks/motors_warp_vs_c.yaml`",
     ),

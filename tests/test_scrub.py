@@ -76,8 +76,10 @@ MJX_MEAN_ATOL = 1e-6  # N m
 # rolling form (slow), N m per step: measured 3.4e-7; 1.2e-7 at the first step after the settle, where the
 # steering rate steps up from 0 onto the settled contacts (the two engines' round-off, 4e-10 rad/s in the
 # hub speed, times kv 300; it stays 1.2e-7 with the solver tolerance at 1e-12), and 6.5e-9 without the
-# settle. It was 2e-7 (measured 6.8e-8) before the settle
-MJX_ROLLING_STEP_ATOL = 1e-6
+# settle. It was 2e-7 (measured 6.8e-8) before the settle. MJX stays on 3.17 (there is no MJX 4.0) while MuJoCo C
+# moved to 4.0: measured 1.047e-6 against C 4.0, where C 4.0 itself differs from C 3.17 by 1.048e-6 N m on the same
+# series (issue 46); the bound is that version gap's, doubled
+MJX_ROLLING_STEP_ATOL = 2e-6
 
 
 @pytest.fixture(scope="module")

@@ -7,8 +7,8 @@ An engine is built for one scenario and reduction (`stats.StatsConfig`) and has
 
 - `mujoco` (engines/mujoco.py): MuJoCo C through mujoco.batch, on the CPU; the reference.
 - `mjx` (engines/mjx.py): MuJoCo MJX, JAX implementation, on JAX's devices.
-- `warp` (engines/warp.py): MuJoCo MJX, Warp implementation (MuJoCo Warp), float32, on one
-  CUDA GPU or the CPU.
+- `warp` (engines/warp.py): MuJoCo Warp 4.0 (`mujoco_warp`, engines/warp_physics.py) as the physics of
+  the same scan, float32, on one CUDA GPU or the CPU.
 
 `implementation` is a line for the manifest and the Parquet metadata.
 """

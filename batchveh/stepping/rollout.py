@@ -153,8 +153,7 @@ def mjx_stats(
 ) -> dict[str, jax.Array]:
     """Statistics columns of one variant in MJX (pure; vmap it over a batched model): `physics_stats`.
 
-    data: the initial data (MJX's Warp implementation makes it from the base MjModel); default
-    `mjx.make_data(model)`. Either way it starts at the variant's own qpos0."""
+    data: the initial data; default `mjx.make_data(model)`. Either way it starts at the variant's own qpos0."""
     return physics_stats(MjxPhysics(model, data), params, scenario=scenario, cfg=cfg, lay=lay, unroll=unroll)
 
 
