@@ -412,8 +412,19 @@ ROWS = [
         "`python benchmarks/ray_gpus.py --two-gpus OUT --only 400k_ray_worker_killed`",
     ),
     Row(
-        "Two GPUs without Ray: `--executor gpus` (one process per GPU; the default on a host with several) against "
-        "one GPU in-process (CUDA_VISIBLE_DEVICES=0), end to end, alternated pairs",
+        "Two GPUs on MuJoCo Warp 4.0: `--executor gpus` against one GPU in-process, 1,000,000 x 10 s, end to end",
+        ["h100x2-gpu-processes-native.json"],
+        lambda d: (
+            f"**{d['pairs'][0]['process_ratio']:.3f}x** one GPU's time "
+            f"({d['steps']['1m_gpus_2gpu_1']['process_s']:.1f} s against "
+            f"{d['steps']['1m_local_1gpu_1']['process_s']:.1f} s; one pair)"
+        ),
+        "two H100s of one host, 32 cores",
+        "`python benchmarks/ray_gpus.py --gpu-processes OUT --rounds-1m 1 --rounds-100k 0 --warm-chunks 125184,100096`",
+    ),
+    Row(
+        "Two GPUs without Ray, the earlier warp engine: `--executor gpus` (one process per GPU; the default on a host "
+        "with several) against one GPU in-process (CUDA_VISIBLE_DEVICES=0), end to end, alternated pairs",
         [
             "h100x2-gpu-processes-worker-start.json",
             "h100x2-gpu-processes-prestart-2.json",
