@@ -238,3 +238,32 @@ def test_sweep_on_warp_records_its_implementation(tmp_path, capsys):
     w, c = (load(outs[b]) for b in ("warp", "mujoco"))
     assert list(w["status"]) == list(c["status"]) == ["ok", "ok"]
     np.testing.assert_allclose(w["drive_sum_mean"], c["drive_sum_mean"], rtol=SUM_RTOL, atol=SUM_ATOL)
+
+
+def test_chunks_reuse_one_program_with_their_own_fields(vehicle):
+    """The engine writes each chunk's per-world fields into MuJoCo Warp's model in place and resets every world:
+    chunk B (A's variants swapped) reads A's rows swapped, A run again reads A's bits, on one compiled program."""
+    sc = _scenario()
+    eng = WarpEngine(sc, _cfg(sc), 2)
+    table = {"payload.mass": np.array([0.0, 40.0]), "wheel.radius": np.array([0.17, 0.22]), "slope_deg": [4.0, 10.0]}
+    swapped = {k: np.asarray(v)[::-1] for k, v in table.items()}
+    a = eng.run(make_batch(vehicle, sc, table))
+    b = eng.run(make_batch(vehicle, sc, swapped))
+    again = eng.run(make_batch(vehicle, sc, table))
+    assert eng.compiles == 1
+    for k in ("drive_sum_mean", "drive_lf_peak", "steer_rr_rms", "mean_speed"):
+        np.testing.assert_allclose(b[k][::-1], a[k], rtol=1e-5, atol=1e-6, err_msg=k)
+        np.testing.assert_array_equal(again[k], a[k], err_msg=k)  # the CPU sums in one order: the same bits
+    assert abs(a["drive_sum_mean"][1] - a["drive_sum_mean"][0]) > 10.0  # the two variants differ (N m)
+
+
+def test_warp_refuses_a_field_it_keeps_one_per_model(vehicle):
+    """A parameter that changes a field MuJoCo Warp keeps one per model (a terrain's heights) gets one line naming
+    the field and what is allowed."""
+    from batchveh.engines.warp import batched_fields
+    from batchveh.stepping.batch import VariantBatch
+
+    b = make_batch(vehicle, _scenario(), {"friction": np.array([0.5, 0.9])})
+    bad = VariantBatch(b.model, {**b.fields, "hfield_data": np.zeros((2, 4))}, b.params, 2)
+    with pytest.raises(ConfigError, match=r"model field hfield_data is one per model in MuJoCo Warp.*allowed: the"):
+        batched_fields(bad)
