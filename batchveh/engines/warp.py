@@ -8,8 +8,9 @@ step is one Warp call on all worlds, captured as a CUDA graph. It collides every
 
 - Solver health is data, not output: the column `solver_limit_share` gives each variant's share of steps
   whose solve stopped on `opt.iterations` rather than on the tolerance.
-- Contact buffers are sized per world (`contacts_per_world`); a world that runs out of them (a vehicle on
-  its back) is reported `diverged`.
+- Contact buffers: `contacts_per_world` (24) times the chunk's worlds, shared by all of them (MuJoCo Warp's
+  `naconmax`), and the constraint rows those contacts need per world; MuJoCo Warp drops contacts past the
+  buffer, silently (its overflow messages are off). The vehicle on its wheels uses 2 per cylinder wheel.
 - One device: a host with several GPUs runs one process per GPU (`CUDA_VISIBLE_DEVICES`).
 - `deterministic`: MuJoCo Warp's `Option.deterministic` (stable contact order, canonical constraint rows,
   invariant atomic sums), so that two runs give the same bits.

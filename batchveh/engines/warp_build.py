@@ -39,9 +39,14 @@ from batchveh.engines.common import spawn_safe
 MUJOCO_WARP = "mujoco_warp"
 # parts of the step, each run in a process of its own, longest first: the constraint solver (two
 # libmathdx tile Cholesky solves), the smooth acceleration's factor-solve of M (another), collision,
-# the constraint rows, passive forces. None of them launches the per-file modules' kernels that
-# another needs first (on one H100, a position stage that did waited 10 s for `smooth`)
-STAGES = ("solve", "fwd_acceleration", "collision", "make_constraint", "passive")
+# the constraint rows, passive forces; then what MuJoCo Warp 4.0's step also makes per model: the implicit
+# integrator's actuator and passive derivative, the actuator forces, the transmission, the contact forces on the
+# bodies (cfrc_ext). None of them launches the per-file modules' kernels that another needs first (on one H100, a
+# position stage that did waited 10 s for `smooth`)
+STAGES = (
+    "solve", "fwd_acceleration", "collision", "make_constraint", "passive", "implicit", "fwd_actuation",
+    "transmission", "rne_postconstraint",
+)  # fmt: skip
 # MuJoCo Warp's per-file modules that its step launches, the largest first (each also builds at a stage
 # that reaches it first); any other builds at its first launch, as before
 FILE_MODULES = (
