@@ -228,9 +228,17 @@ def _e2e_native(*ds: dict) -> str:
     return "; ".join(one(d) for d in ds)
 
 
-def _first_native(d: dict) -> str:
-    by = {r["way"]: r for r in d["runs"] if r["kind"] == "first"}
-    return ", ".join(f"{w} **{by[w]['wall_s']:.1f} s**" for w in ("ahead", "threads", "serial") if w in by)
+def _first_native(*ds: dict) -> str:
+    firsts: dict[str, list[float]] = {}
+    for d in ds:
+        for r in d["runs"]:
+            if r["kind"] == "first":
+                firsts.setdefault(r["way"], []).append(r["wall_s"])
+    return ", ".join(
+        f"{w} **{min(v):.1f}{f'-{max(v):.1f}' if len(v) > 1 else ''} s**"
+        for w in ("ahead", "threads", "serial")
+        if (v := firsts.get(w))
+    ) + f" ({sum(map(len, firsts.values()))} first runs, {len(ds)} calls)"
 
 
 def _reruns(native: dict, det: dict, xladet: dict, alone: dict) -> str:
@@ -287,11 +295,11 @@ ROWS = [
     Row(
         "The first run on a fresh machine (the same sweep), each way on empty caches of its own: kernels built ahead "
         "by worker processes (`engines/warp_build.py`), by Warp's own parallel loading (threads), or at first launch",
-        ["h100-first-gpu-run-native.json"],
+        ["h100-first-gpu-run-native.json", "h100-first-gpu-run-native-2.json"],
         _first_native,
-        "one H100, 16 cores",
+        "one H100, 16 cores (two hosts)",
         "`python benchmarks/gpu_start.py benchmarks/slope_100k.yaml --fresh --ways serial,ahead,threads "
-        "--warm-runs 0`",
+        "--warm-runs 0` (the second file: `--ways ahead,threads --warm-runs 1`, two rounds)",
     ),
     Row(
         "Reruns on a GPU: the warp engine's columns, MuJoCo Warp alone, and MuJoCo Warp's Option.deterministic",
