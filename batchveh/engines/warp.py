@@ -72,7 +72,7 @@ def batched_fields(batch: VariantBatch) -> dict[str, np.ndarray]:
     import mujoco_warp as mjw
 
     per_world = {f.name for f in dataclasses.fields(mjw.Model) if getattr(f.type, "shape", (None,))[:1] == ("*",)}
-    options = {f.name for f in dataclasses.fields(mjw.Option)}
+    options = {f.name for f in dataclasses.fields(mjw.Option) if getattr(f.type, "shape", None)}  # array options
     out = {}
     for name, values in batch.fields.items():
         if name in WARP_UNREAD or name in SAMEFRAME:
