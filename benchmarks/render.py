@@ -207,6 +207,12 @@ DC_COMPARED = ("current_rms", "winding_temp_rise", "energy_drawn", "speed_shortf
 H200_UNNAMED = "one H200 (nvidia-h200 kind; the file names no GPU)"
 TWO_CORES = "this project's 2-core machine"
 
+def _span(values) -> str:
+    """'a-b s in n runs', or 'a s in one run'."""
+    v = sorted(values)
+    return f"{v[0]:.1f} s in one run" if len(v) == 1 else f"{v[0]:.1f}-{v[-1]:.1f} s in {len(v)} runs"
+
+
 def _native(d: dict) -> str:
     """The warp engine against MuJoCo Warp alone, same process (benchmarks/warp_native.py)."""
     alone = bench_row(d, "MuJoCo Warp alone")["rate"]
@@ -318,8 +324,7 @@ ROWS = [
             f"**{min(d['sweep_wall_s']):.1f}-{max(d['sweep_wall_s']):.1f} s** of sweep in "
             f"{len(d['sweep_wall_s'])} runs (code {d['code']})"
             + "".join(
-                f"; later, {min(r['sweep_wall_s'].values()):.1f}-{max(r['sweep_wall_s'].values()):.1f} s in "
-                f"{len(r['sweep_wall_s'])} runs ({r['date'][:16]} UTC, code {r['code'].split()[0]}; "
+                f"; later, {_span(r['sweep_wall_s'].values())} ({r['date'][:16]} UTC, code {r['code'].split()[0]}; "
                 "the machine slower then)"
                 for r in d.get("later", [])
             )
