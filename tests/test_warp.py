@@ -1,4 +1,4 @@
-"""The warp engine (MJX's Warp implementation, float32) against MuJoCo C, on the CPU.
+"""The warp engine (MuJoCo Warp 4.0 as the physics of the scan, float32) against MuJoCo C, on the CPU.
 
 MuJoCo Warp runs on the CPU too, slowly (about 4e3 variant-steps/s on 2 cores): tiny sweeps
 are enough to show that it steps the same physics. Its kernels compile once per machine
@@ -267,3 +267,46 @@ def test_warp_refuses_a_field_it_keeps_one_per_model(vehicle):
     bad = VariantBatch(b.model, {**b.fields, "hfield_data": np.zeros((2, 4))}, b.params, 2)
     with pytest.raises(ConfigError, match=r"model field hfield_data is one per model in MuJoCo Warp.*allowed: the"):
         batched_fields(bad)
+
+
+def test_a_world_out_of_contacts_is_diverged(vehicle):
+    """Contact buffers too small for the wheels (one contact a world where the four cylinder wheels need eight):
+    MuJoCo Warp drops contacts and flags the world; every variant is reported diverged, as none is with the
+    default buffers."""
+    sc = _scenario()
+    table = {"friction": np.array([0.5, 0.9])}
+    short = WarpEngine(sc, _cfg(sc), 2, contacts_per_world=1).run(make_batch(vehicle, sc, table))
+    np.testing.assert_array_equal(short["status_code"], [1, 1])
+    ok = WarpEngine(sc, _cfg(sc), 2).run(make_batch(vehicle, sc, table))
+    np.testing.assert_array_equal(ok["status_code"], [0, 0])
+
+
+def test_one_engine_on_two_vehicles_runs_each_its_own(vehicle):
+    """The same fields and chunk size on another vehicle (a fixed smaller wheel, not a per-world field here): the
+    engine builds a second program, and reads what a fresh engine reads."""
+    from batchveh.model.vehicle import Vehicle, Wheel
+
+    sc = _scenario()
+    table = {"slope_deg": np.array([3.0, 8.0])}
+    small = Vehicle(wheel=Wheel(radius=0.15))
+    eng = WarpEngine(sc, _cfg(sc), 2)
+    eng.run(make_batch(vehicle, sc, table))
+    reused = eng.run(make_batch(small, sc, table))
+    fresh = WarpEngine(sc, _cfg(sc), 2).run(make_batch(small, sc, table))
+    assert eng.compiles == 2
+    np.testing.assert_array_equal(reused["drive_sum_mean"], fresh["drive_sum_mean"])
+
+
+def test_close_lets_the_worlds_go(vehicle):
+    """Warp's registry of JAX callables outlives the engine: `close` drops the MuJoCo Warp data it held."""
+    import gc
+    import weakref
+
+    sc = _scenario()
+    eng = WarpEngine(sc, _cfg(sc), 2)
+    eng.run(make_batch(vehicle, sc, {"friction": np.array([0.5, 0.9])}))
+    data = weakref.ref(next(iter(eng._phys.values())).d)
+    assert data() is not None
+    eng.close()
+    gc.collect()
+    assert data() is None and eng.compiles == 0

@@ -9,8 +9,9 @@ step is one Warp call on all worlds, captured as a CUDA graph. It collides every
 - Solver health is data, not output: the column `solver_limit_share` gives each variant's share of steps
   whose solve stopped on `opt.iterations` rather than on the tolerance.
 - Contact buffers: `contacts_per_world` (24) times the chunk's worlds, shared by all of them (MuJoCo Warp's
-  `naconmax`), and the constraint rows those contacts need per world; MuJoCo Warp drops contacts past the
-  buffer, silently (its overflow messages are off). The vehicle on its wheels uses 2 per cylinder wheel.
+  `naconmax`), and the constraint rows those contacts need per world. A world whose buffer ran out (MuJoCo
+  Warp's `overflow` bits: it dropped what did not fit) is reported `diverged`. The vehicle on its wheels uses
+  2 contacts per cylinder wheel.
 - One device: a host with several GPUs runs one process per GPU (`CUDA_VISIBLE_DEVICES`).
 - `deterministic`: MuJoCo Warp's `Option.deterministic` (stable contact order, canonical constraint rows,
   invariant atomic sums), so that two runs give the same bits.
@@ -63,6 +64,10 @@ class _View:
     def step(self, d):
         return self.phys.step(d)
 
+    def fault(self, d):
+        """A contact or constraint buffer ran out in this world (MuJoCo Warp dropped what did not fit)."""
+        return d.overflow != 0
+
 
 def batched_fields(batch: VariantBatch) -> dict[str, np.ndarray]:
     """The chunk's model fields that MuJoCo Warp reads per world, each (n, ...); a field it keeps one per
@@ -72,7 +77,8 @@ def batched_fields(batch: VariantBatch) -> dict[str, np.ndarray]:
     import mujoco_warp as mjw
 
     per_world = {f.name for f in dataclasses.fields(mjw.Model) if getattr(f.type, "shape", (None,))[:1] == ("*",)}
-    options = {f.name for f in dataclasses.fields(mjw.Option) if getattr(f.type, "shape", None)}  # array options
+    # options MuJoCo Warp holds per world and reads as they are (put_model derives others from theirs)
+    options = {"gravity", "timestep"}
     out = {}
     for name, values in batch.fields.items():
         if name in WARP_UNREAD or name in SAMEFRAME:
@@ -139,6 +145,19 @@ class WarpEngine(MjxEngine):
             except Exception:  # noqa: BLE001 - a head start only: the first launch builds what is missing
                 warp_build.stop_workers()
 
+    def close(self) -> None:
+        """Let go of every program's MuJoCo Warp model and data (device memory), and the compiled programs."""
+        for phys in self._phys.values():
+            phys.close()
+        self._phys.clear()
+        self._fn.clear()
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001 - at interpreter exit Warp may be gone already
+            pass
+
     @property
     def implementation(self) -> str:
         import mujoco_warp
@@ -183,8 +202,8 @@ class WarpEngine(MjxEngine):
         from batchveh.engines import warp_build
 
         batched = {k: batch.n for k in fields}
-        njmax, naconmax = self._sizes(batch)
-        args = (batch.model, batched, njmax, naconmax)
+        njmax, _ = self._sizes(batch)
+        args = (batch.model, batched, njmax, self.contacts_per_world)  # the workers' copy has one world
         try:
             if warp_build.wanted(*args, self.deterministic):
                 return warp_build.AheadBuild(*args, device=self._device(), deterministic=self.deterministic)
@@ -209,7 +228,7 @@ class WarpEngine(MjxEngine):
         course.check_backend(batch.model, "warp")
         with float_precision("f32"), _quiet():
             fields = batched_fields(batch)
-            key = (tuple(sorted(batch.fields)), batch.n)
+            key = (tuple(sorted(batch.fields)), batch.n, fingerprint(batch.model))
             dt, mass = self._inputs(batch, fields)
             params = {k: jnp.asarray(v, jnp.float32) for k, v in batch.params.items()}
             ahead = None
@@ -233,6 +252,16 @@ class WarpEngine(MjxEngine):
         if ahead is not None:  # the first chunk ran: this vehicle's kernels are all in Warp's cache now
             ahead.done()
         return {k: np.asarray(v)[:n] for k, v in out.items()}
+
+
+def fingerprint(m: mujoco.MjModel) -> str:
+    """A hash of the whole base model (MuJoCo's binary form): a program and its MuJoCo Warp model serve only the
+    model they were built from (its values that are not per-world fields, its options and its layout)."""
+    import hashlib
+
+    buf = np.empty(mujoco.mj_sizeModel(m), np.uint8)
+    mujoco.mj_saveModel(m, None, buf)
+    return hashlib.sha1(buf.tobytes()).hexdigest()
 
 
 def _quiet():

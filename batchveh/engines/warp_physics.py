@@ -39,6 +39,7 @@ class WarpState(NamedTuple):
     xmat: jax.Array
     cfrc_ext: jax.Array
     solver_niter: jax.Array
+    overflow: jax.Array  # MuJoCo Warp's per-world overflow bits (a contact or constraint buffer ran out)
     ctrl: jax.Array
     xfrc_applied: jax.Array
 
@@ -50,7 +51,8 @@ class WarpState(NamedTuple):
         return self
 
 
-OUTPUTS = WarpState._fields[:9]
+OUTPUTS = WarpState._fields[:10]
+INTS = ("solver_niter", "overflow")
 
 
 class WarpPhysics:
@@ -82,8 +84,8 @@ class WarpPhysics:
             for k in (k for k in batched if k.startswith("opt.")):
                 self._widen_option(k[4:], n)
             self.m.opt.deterministic = deterministic
-            # overflow and iteration-limit messages off: the engine reports both per variant (`solver_limit_share`,
-            # a `diverged` status for a world out of contacts)
+            # overflow and iteration-limit messages off: the engine reports both per variant (`solver_limit_share`;
+            # a world whose contact or constraint buffer ran out is `diverged`, from its `overflow` bits)
             self.m.opt.warn_overflow = 0
             if graph_mode == "JAX":  # JAX captures the call into its own graph, which holds no conditional nodes
                 self.m.opt.graph_conditional = False
@@ -93,13 +95,24 @@ class WarpPhysics:
         self.shapes = {
             "qpos": (n, mjm.nq), "qvel": (n, mjm.nv), "qfrc_actuator": (n, mjm.nv), "actuator_force": (n, mjm.nu),
             "actuator_velocity": (n, mjm.nu), "xpos": (n, mjm.nbody), "xmat": (n, mjm.nbody),
-            "cfrc_ext": (n, mjm.nbody), "solver_niter": (n,),
+            "cfrc_ext": (n, mjm.nbody), "solver_niter": (n,), "overflow": (n,),
         }  # fmt: skip
         on_cpu = self.device.is_cpu
         mode = wp.JaxCallableGraphMode.NONE if on_cpu else wp.JaxCallableGraphMode[graph_mode]
+        self._slot = {"m": self.m, "d": self.d}
         self._step = self._callable(mjw.step, mode)
         self._forward = self._callable(self._reset_forward, mode)
         self._mjw = mjw
+
+    def close(self) -> None:
+        """Let the device memory go: Warp's registry of JAX callables keeps each `call` (and its captured graphs)
+        for the process's life, so the model and data are dropped from the slot it reads and its graphs cleared."""
+        import warp as wp
+
+        for c in (self._step, self._forward):
+            wp.clear_jax_callable_graph_cache(c)
+        self._slot.clear()
+        self.m = self.d = None
 
     def _widen_option(self, name: str, n: int) -> None:
         import warp as wp
@@ -116,7 +129,7 @@ class WarpPhysics:
         """A jax_callable: copy ctrl and xfrc_applied in, `advance(m, d)`, copy the outputs out."""
         import warp as wp
 
-        m, d = self.m, self.d
+        slot = self._slot  # not the model and data themselves: `close` empties it, Warp's registry keeps `call`
 
         def call(
             ctrl: wp.array2d(dtype=wp.float32),
@@ -130,15 +143,15 @@ class WarpPhysics:
             xmat: wp.array2d(dtype=wp.mat33),
             cfrc_ext: wp.array2d(dtype=wp.spatial_vector),
             solver_niter: wp.array(dtype=wp.int32),
+            overflow: wp.array(dtype=wp.int32),
         ):
+            m, d = slot["m"], slot["d"]
             wp.copy(d.ctrl, ctrl)
             wp.copy(d.xfrc_applied, xfrc_applied)
             advance(m, d)
-            for out, name in zip(
-                (qpos, qvel, qfrc_actuator, actuator_force, actuator_velocity, xpos, xmat, cfrc_ext, solver_niter),
-                OUTPUTS,
-                strict=True,
-            ):
+            outs = (qpos, qvel, qfrc_actuator, actuator_force, actuator_velocity, xpos, xmat, cfrc_ext, solver_niter,
+                    overflow)  # fmt: skip
+            for out, name in zip(outs, OUTPUTS, strict=True):
                 wp.copy(out, getattr(d, name))
 
         return wp.jax_callable(
@@ -168,8 +181,8 @@ class WarpPhysics:
 
     def _batched_call(self, fn, ctrl, xfrc):
         def one(ctrl, xfrc):  # outside vmap: NaN (the worlds are the vmapped variants; the engine always vmaps)
-            return tuple(jnp.full(self._one_shape(k), jnp.nan if k != "solver_niter" else -1,
-                                  jnp.int32 if k == "solver_niter" else jnp.float32) for k in OUTPUTS)  # fmt: skip
+            return tuple(jnp.full(self._one_shape(k), -1 if k in INTS else jnp.nan,
+                                  jnp.int32 if k in INTS else jnp.float32) for k in OUTPUTS)  # fmt: skip
 
         f = jax.custom_batching.custom_vmap(one)
 

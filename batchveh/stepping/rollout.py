@@ -51,17 +51,20 @@ def host_cpu() -> jax.Device:
 
 
 class MjxPhysics:
-    """The physics of one variant's scan in MJX (either implementation): what `physics_stats` needs of it.
+    """The physics of one variant's scan in MJX: what `physics_stats` needs of it.
 
-    The protocol (WarpPhysics' view, engines/warp_physics.py, is the other): `dt`, `body_mass`, `iterations`
-    (the solver's limit where the implementation reports its iteration count, else None), `start()` (the
-    first data, forwarded) and `step(d)`."""
+    The protocol (the warp engine's view of MuJoCo Warp, engines/warp.py, is the other): `dt`, `body_mass`,
+    `iterations` (the solver's limit where the implementation reports its iteration count, else None), `start()`
+    (the first data, forwarded), `step(d)` and `fault(d)` (per variant, whether the step lost part of its physics,
+    e.g. contacts past a buffer; None where the implementation cannot tell)."""
 
     def __init__(self, model: mjx.Model, data: mjx.Data | None = None):
         self.model, self.data = model, data
         self.dt, self.body_mass = model.opt.timestep, model.body_mass
-        # MuJoCo Warp records its solver's iteration count per world; MJX's JAX solver leaves it at 0
-        self.iterations = model.opt.iterations if model.impl == mjx.Impl.WARP else None
+        self.iterations = None  # MJX's JAX solver leaves its iteration count at 0
+
+    def fault(self, d: mjx.Data) -> None:
+        return None
 
     def start(self) -> mjx.Data:
         """The initial data at the variant's own qpos0 (a swept chassis position moves it), forwarded."""
@@ -166,18 +169,24 @@ def physics_stats(
     per iteration of the scan's loop (`lax.scan`'s)."""
     dtype = phys.dt.dtype
     health = phys.iterations is not None
+    zero = jnp.zeros((), jnp.int32)
 
     def out(d, carry, s, i):
-        acc, at_limit = carry
+        acc, at_limit, faults = carry
         block = jax.tree_util.tree_map(lambda v: v[None], s)  # a block of one step: time axis -2
         if health:
             at_limit = at_limit + (d._impl.solver_niter >= phys.iterations).astype(jnp.int32)
-        return (d, (stats.update(acc, block, i[None], cfg, xp=jnp), at_limit)), None
+        fault = phys.fault(d)
+        if fault is not None:
+            faults = faults + fault.astype(jnp.int32)
+        return (d, (stats.update(acc, block, i[None], cfg, xp=jnp), at_limit, faults)), None
 
     body = _scan(phys, params, scenario, lay, out, cfg.motors)
-    init = (_init(phys, params, lay), (stats.init(cfg, (), xp=jnp, dtype=dtype), jnp.zeros((), jnp.int32)))
-    (_, (acc, at_limit)), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps), unroll=unroll)
+    init = (_init(phys, params, lay), (stats.init(cfg, (), xp=jnp, dtype=dtype), zero, zero))
+    (_, (acc, at_limit, faults)), _ = jax.lax.scan(body, init, jnp.arange(cfg.n_steps), unroll=unroll)
     cols = stats.finalize(acc, cfg, xp=jnp)
+    # a step that lost part of its physics (contacts past the buffer) makes the variant diverged (stats.STATUS 1)
+    cols["status_code"] = jnp.where(faults > 0, jnp.ones_like(cols["status_code"]), cols["status_code"])
     if health:
         cols["solver_limit_share"] = at_limit.astype(dtype) / cfg.n_steps
     return cols
