@@ -108,7 +108,7 @@ class WarpEngine(MjxEngine):
         chunk_size: int,
         precision: str = "f32",
         contacts_per_world: int = 0,
-        deterministic: bool = False,
+        deterministic: bool | int = False,
         graph_mode: str = "WARP",
     ):
         if precision != "f32":
@@ -125,11 +125,11 @@ class WarpEngine(MjxEngine):
         self.devices = self.devices[:1]
         self.chunk_size = chunk_size
         self.contacts_per_world = contacts_per_world or CONTACTS_PER_WORLD
-        self.deterministic = int(deterministic)  # MuJoCo Warp's DeterminismType bits; True: all of them
-        if self.deterministic == 1 and deterministic is True:
+        if deterministic is True:  # all of MuJoCo Warp's DeterminismType bits; an int: those bits
             import mujoco_warp as mjw
 
-            self.deterministic = int(mjw.DeterminismType.ALL)
+            deterministic = mjw.DeterminismType.ALL
+        self.deterministic = int(deterministic)
         self.graph_mode = graph_mode
         self.warm_s = 0.0  # Warp's first launches of each new program (kernels loaded or built)
         self.ahead: dict[str, Any] = {}  # what building the kernels ahead took (warp_build.AheadBuild.wait)
