@@ -682,6 +682,26 @@ def main():
 
 
 # MuJoCo Warp driven directly: the GPU peer (was benchmarks/mjwarp_direct.py)
+def native_case(size: int, steps: int):
+    """warp_native.py's and warp_profile.py's case: the slope grid's `size` variants (seed 3) with the slip tyre, and
+    what MuJoCo Warp alone needs of them. Returns (spec, StatsConfig of `steps` steps, columns, base batch,
+    gravity (size, 3), omega (size,) rad/s)."""
+    global TYRE
+    from batchveh.model.scenarios import gravity_vector
+    from batchveh.stepping import stats
+    from batchveh.stepping.batch import make_batch
+
+    TYRE = "slip"
+    spec, table = slope_table(size, seed=3)
+    sc = spec.scenario
+    cfg = stats.StatsConfig.make(sc.time_step, steps, spec.window)
+    cols = _cols(table, spec)
+    base = make_batch(spec.vehicle, sc, {})
+    gravity = np.asarray(gravity_vector(np.full(size, sc.gravity), cols["slope_deg"], xp=np))
+    omega = cols["speed_kmh"] / 3.6 / spec.vehicle.wheel.radius
+    return spec, cfg, cols, base, gravity, omega
+
+
 def bench_mjwarp_direct(
     model, gravity, friction, omega, n_steps: int, graph_steps: int = 50, contacts: int = 24, deterministic: int = 0,
     final: dict | None = None,

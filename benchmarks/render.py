@@ -234,6 +234,20 @@ def _e2e_native(*ds: dict) -> str:
     return "; ".join(one(d) for d in ds)
 
 
+def _profile(d: dict) -> str:
+    """Per step: MuJoCo Warp alone, the engine, and the engine's device time by kind (benchmarks/warp_profile.py)."""
+    ms = {r["name"]: r["ms_per_step"] for r in d["rows"]}
+    p = d["profile warp engine"]
+    kinds = p["by_kind_us_per_step"]
+    idle = p["span_us_per_step"] - p["busy_us_per_step"]
+    return (
+        f"MuJoCo Warp alone **{ms['MuJoCo Warp alone']:.2f} ms** a step, the engine **{ms['warp engine']:.2f} ms**, "
+        f"its Warp calls in a scan {ms['physics in JAX']:.2f} ms; of the engine's step (profiled): MuJoCo Warp's "
+        f"kernels **{kinds['warp'] / 1e3:.2f} ms**, XLA's (tyre, drive, statistics) {kinds['xla'] / 1e3:.2f} ms, "
+        f"copies {kinds['copy'] / 1e3:.2f} ms, the GPU idle {idle / 1e3:.2f} ms"
+    )
+
+
 def _first_native(*ds: dict) -> str:
     firsts: dict[str, list[float]] = {}
     for d in ds:
@@ -293,10 +307,19 @@ ROWS = [
     Row(
         "End to end on MuJoCo Warp 4.0: `python -m batchveh.sweep benchmarks/slope_100k.yaml` (100,000 x 10 s), "
         "fresh processes",
-        ["h100-end-to-end-slope_100k.json", "h100-end-to-end-slope_100k-2.json"],
+        ["h100-end-to-end-slope_100k.json", "h100-end-to-end-slope_100k-2.json",
+         "h100-end-to-end-slope_100k-review.json"],
         _e2e_native,
-        "two fresh H100 hosts, 16 cores each",
+        "three fresh H100 hosts, 16 cores each (the third after issue 46's review fixes)",
         "`python benchmarks/end_to_end.py benchmarks/slope_100k.yaml --warm 2`",
+    ),
+    Row(
+        "Where a step of the warp engine goes (131,072 variants x 400 steps, slip tyre), from a JAX profiler trace, "
+        "against MuJoCo Warp alone and the engine's own Warp calls in a JAX scan without tyre, drive or statistics",
+        ["h100-warp-profile.json"],
+        _profile,
+        "one fresh H100, 16 cores",
+        "`python benchmarks/warp_profile.py --size 131072 --label h100`",
     ),
     Row(
         "The first run on a fresh machine (the same sweep), each way on empty caches of its own: kernels built ahead "

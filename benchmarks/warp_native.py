@@ -63,21 +63,13 @@ def main(argv=None) -> None:
     import jax
 
     from batchveh.engines.warp import WarpEngine
-    from batchveh.model.scenarios import gravity_vector
-    from batchveh.stepping import stats
     from batchveh.stepping.batch import make_batch
 
-    bench.TYRE = "slip"
-    spec, table = bench.slope_table(args.size, seed=3)
+    spec, cfg, cols, base, gravity, omega = bench.native_case(args.size, args.steps)
     sc = spec.scenario
-    cfg = stats.StatsConfig.make(sc.time_step, args.steps, spec.window)
-    cols = bench._cols(table, spec)
     rows, reruns = [], {}
     result = {"machine": bench.machine(), "size": args.size, "steps": args.steps, "rows": rows, "reruns": reruns}
 
-    base = make_batch(spec.vehicle, sc, {})
-    gravity = np.asarray(gravity_vector(np.full(args.size, sc.gravity), cols["slope_deg"], xp=np))
-    omega = cols["speed_kmh"] / 3.6 / spec.vehicle.wheel.radius
     rate, extra = bench.bench_mjwarp_direct(base.model, gravity, cols["friction"], omega, args.steps)
     rows.append({"name": "MuJoCo Warp alone", "rate": rate, **extra})
     print(rows[-1], flush=True)

@@ -74,6 +74,7 @@ def test_drag_friction_is_coulomb_on_mujoco_c(mu):
         assert TARGET[v] <= ratio <= UPPER, (mu, v, ratio)
 
 
+@pytest.mark.slow
 def test_drag_friction_is_coulomb_on_mjx_float64():
     """The same rig on MJX in float64, every speed and friction in one vmapped program."""
     import jax

@@ -22,6 +22,8 @@ from batchveh.stepping.batch import make_batch
 from batchveh.stepping.rollout import mujoco_steps
 from batchveh.sweeping.spec import spec_from_mapping
 
+pytestmark = pytest.mark.xdist_group("drive")  # one test worker: the module's shared fixtures run once
+
 CATALOGUE = Path(__file__).resolve().parent.parent / "notebooks" / "motors.yaml"
 EC45 = "maxon-EC45flat43-70W-24V_NPT015-i40"  # 5.05 N m at its current limit at the wheel, 14.85 rad/s no-load
 FAULHABER = "faulhaber-3863H024CR_NPT015-i40"  # 5.96 N m, 15.08 rad/s

@@ -10,7 +10,9 @@ chunks, this process waits for it before its second chunk (`_patient`).
 
 import json
 import os
+import sys
 import time
+import types
 from collections import Counter
 
 import pandas as pd
@@ -23,6 +25,8 @@ from batchveh.sweeping import gpus
 from batchveh.sweeping.chunks import Pipeline
 from batchveh.sweeping.results import ResultFolder
 from batchveh.sweeping.spec import load_spec
+
+pytestmark = pytest.mark.xdist_group("gpu_processes")  # one test worker: the module's shared fixtures run once
 
 NAMES = ["0", "1"]  # this process and one worker process
 # the spec: conftest.sweep_spec, 8 variants of 1 s (300 steps of 5 ms with the settle), here in 4 chunks of 2
@@ -141,6 +145,7 @@ def test_hand_out_ahead_only_while_the_queue_is_long():
     assert slot.chunks == [3] and list(ex._queue) == [4]
 
 
+@pytest.mark.slow
 def test_killed_worker_chunk_runs_again(tmp_path, monkeypatch, reference):
     s, ex, notes, out = _sweep(tmp_path, monkeypatch, "killed", BATCHVEH_KILL_CHUNK="1")
     assert s["rows"] == 8 and not s["failed"], s
@@ -179,7 +184,10 @@ def test_automatic_choice(tmp_path, monkeypatch):
     spec = load_spec(_spec(tmp_path, fixed={"total_time": 10.0, "ramp_time": 2.0}))  # 2,100 steps
     monkeypatch.setenv("CUDA_VISIBLE_DEVICES", "0,1")
     monkeypatch.delenv("BATCHVEH_GPU_PROCESSES", raising=False)
-    assert not gpus.spawn_safe()  # pytest's main script: no worker processes unless asked for
+    script = types.ModuleType("__main__")  # a user's script (not batchveh's command line, not a notebook)
+    script.__file__, script.__spec__ = str(tmp_path / "my_sweep.py"), None
+    monkeypatch.setitem(sys.modules, "__main__", script)
+    assert not gpus.spawn_safe()  # an unguarded script: no worker processes unless asked for
     assert gpus.automatic(load_spec(_spec(tmp_path, "unguarded")), "warp", 1_000_000) is None
     monkeypatch.setattr(gpus, "spawn_safe", lambda: True)  # as under python -m batchveh.sweep
     ex = gpus.automatic(spec, "warp", 1_000_000)

@@ -26,6 +26,8 @@ from batchveh.stepping.mission_stats import MissionStatsConfig
 from batchveh.sweep import main as sweep_main
 from batchveh.sweeping.results import metadata, units
 
+pytestmark = pytest.mark.xdist_group("missions")  # one test worker: the module's shared fixtures run once
+
 # A mission of one straight segment against straight_line with the same law, on MuJoCo C, flat:
 # the same steps and floats; measured 3.5e-16 (relative, worst statistic)
 SAME_RUN_RTOL = 1e-12

@@ -23,7 +23,15 @@ def test_notebooks_exist():
     ]
 
 
-@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
+# the first three (the seed's scenarios, torque envelopes, motor sizing: the main journeys) in the default run; the
+# four that run longer sweeps (13-29 s each on 2 cores beside another test worker) in -m slow
+DEFAULT_RUN = 3
+
+
+@pytest.mark.parametrize(
+    "path", [p if i < DEFAULT_RUN else pytest.param(p, marks=pytest.mark.slow) for i, p in enumerate(NOTEBOOKS)],
+    ids=lambda p: p.stem,
+)
 def test_notebook_executes(path, tmp_path, monkeypatch):
     for f in path.parent.iterdir():  # run in a copy: no outputs or results land in the repository
         if f.is_file():

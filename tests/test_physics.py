@@ -24,6 +24,8 @@ from batchveh.model.scenarios import make_scenario, scenario_from_mapping
 from batchveh.model.vehicle import build_model
 from batchveh.run import simulate
 
+pytestmark = pytest.mark.xdist_group("physics")  # one test worker: the module's shared fixtures run once
+
 CORNERS = ("lf", "rf", "lr", "rr")
 
 # four-wheel sum of the steady mean drive torques against m g sin(s) r, relative

@@ -9,6 +9,8 @@ import batchveh
 from batchveh.analysis import plot
 from batchveh.model.motors import DCMotor
 
+pytestmark = pytest.mark.xdist_group("plots")  # one test worker: the module's shared fixtures run once
+
 
 @pytest.fixture(scope="module")
 def sweep(tmp_path_factory):

@@ -29,6 +29,8 @@ from batchveh.sweeping import cluster
 from batchveh.sweeping.results import ResultFolder
 from batchveh.sweeping.spec import load_spec
 
+pytestmark = pytest.mark.xdist_group("ray")  # one test worker: one local Ray instance for the module
+
 # 64 variants of 1,100 steps (0.5 s settle, 5 s at 5 ms): a chunk of 8 takes about 0.2 s on one thread,
 # so a kill right after the first part lands while most chunks are still to run
 BIG = {
@@ -197,6 +199,7 @@ def test_driver_killed_then_resume_equals_uninterrupted(tmp_path, local_ray, big
     assert not list(out.glob(".*.tmp"))
 
 
+@pytest.mark.slow
 def test_chunk_that_keeps_failing_is_named_and_the_rest_written(tmp_path, local_ray, capsys, monkeypatch):
     path = _spec(tmp_path)
     expect = _reference(tmp_path, path, chunk_size=2)
@@ -295,6 +298,7 @@ def test_shared_host_equals_in_process(tmp_path, local_ray, monkeypatch, big_ref
     assert sorted(e["chunk"] for e in ends) == list(range(8)) and not notes, notes
 
 
+@pytest.mark.slow
 def test_shared_host_worker_killed(tmp_path, local_ray, monkeypatch, big_reference):
     ends, notes, killed = _shared_run(tmp_path, monkeypatch, big_reference, "shared-killed", kill=True)
     [pid] = killed

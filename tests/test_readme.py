@@ -20,6 +20,8 @@ import yaml
 from batchveh import spec_from_mapping
 from batchveh.model.scenarios import scenario_from_mapping
 
+pytestmark = pytest.mark.xdist_group("readme")  # one test worker: the module's shared fixtures run once
+
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 PAGES = [README, *sorted((ROOT / "docs").glob("*.md")), ROOT / "CHANGELOG.md"]

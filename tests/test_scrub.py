@@ -48,6 +48,8 @@ from batchveh.run import simulate
 from batchveh.stepping.batch import make_batch, servo_damping
 from batchveh.stepping.rollout import float_precision, mujoco_steps
 
+pytestmark = pytest.mark.xdist_group("scrub")  # one test worker: the module's shared fixtures run once
+
 SEED_WINDOW = (0.2, 1.0)  # s: the window, where every point of each contact slides forward
 ROLLING_WINDOW = (0.2, 2.8)  # s: past the step of the drive speeds at t = 0, before the one at 3 s
 COULOMB_RTOL = 0.10  # the issue's: torque within 10% of mu N offset and mu N r

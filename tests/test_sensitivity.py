@@ -33,6 +33,8 @@ from batchveh.sweep import run_sweep
 from batchveh.sweeping.results import ResultFolder
 from batchveh.sweeping.spec import load_spec, variant_table
 
+pytestmark = pytest.mark.xdist_group("sensitivity")  # one test worker: the module's shared fixtures run once
+
 CLIMB = {"total_time": 2.0, "ramp_time": 0.5}  # a 0.5 s ramp, the steady window 1..2 s: 500 steps in all
 SLOPE = {"low": 2.0, "high": 15.0}  # deg
 FRICTION = {"low": 0.6, "high": 1.0}  # tan(15 deg) = 0.27: nothing slips
@@ -290,6 +292,7 @@ def _seconds(text):
     return float(value) * {"s": 1, "min": 60, "h": 3600}[unit]
 
 
+@pytest.mark.slow  # a check on wall time: beside another test worker the sweep's wall is not its own
 def test_dry_run_estimate_is_within_2x_of_the_wall(payload256, capsys):
     """The dry run of the N = 256 payload sweep (MuJoCo C, on the CPU) estimates its time within a factor
     of 2 of the wall time that sweep took (the issue's; the GPU's estimate is not checked here). The estimate
@@ -394,6 +397,7 @@ def local_ray():
     ray.shutdown()
 
 
+@pytest.mark.slow  # 19 s beside another test worker; Ray itself is in the default run (test_ray.py)
 def test_ray_sobol_sweep_equals_the_in_process_one(small, tmp_path, local_ray):
     from batchveh.sweeping import cluster
 

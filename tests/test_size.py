@@ -13,6 +13,8 @@ import pytest
 
 from batchveh.size import EXIT_EXISTS, EXIT_INPUT, EXIT_OK, candidates, main
 
+pytestmark = pytest.mark.xdist_group("size")  # one test worker: the module's shared fixtures run once
+
 ROOT = Path(__file__).resolve().parent.parent
 SPEC = ROOT / "sweeps" / "delivery_robot.yaml"
 CATALOGUE = ROOT / "notebooks" / "motors.yaml"

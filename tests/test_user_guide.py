@@ -15,6 +15,8 @@ from pathlib import Path
 import pytest
 from test_readme import blocks, tiny_folder
 
+pytestmark = pytest.mark.xdist_group("user_guide")  # one test worker: the module's shared fixtures run once
+
 ROOT = Path(__file__).resolve().parent.parent
 GUIDE = ROOT / "docs" / "user-guide.md"
 RUN_TIMEOUT_S = 300

@@ -32,6 +32,8 @@ from batchveh.stepping import stats
 from batchveh.stepping.batch import apply_solver, make_batch
 from batchveh.sweeping.results import load
 
+pytestmark = pytest.mark.xdist_group("warp")  # one test worker: the module's shared fixtures run once
+
 # four-wheel sums, warp float32 vs MuJoCo C float64: measured 1.9e-6 (slope x friction and payload x
 # wheel radius)
 SUM_RTOL = 2e-5
@@ -286,14 +288,16 @@ def test_one_engine_on_two_vehicles_runs_each_its_own(vehicle):
     engine builds a second program, and reads what a fresh engine reads."""
     from batchveh.model.vehicle import Vehicle, Wheel
 
-    sc = _scenario()
+    sc = make_scenario("straight_line", total_time=1.0, ramp_time=0.5)  # three programs: a short run each
     table = {"slope_deg": np.array([3.0, 8.0])}
     small = Vehicle(wheel=Wheel(radius=0.15))
     eng = WarpEngine(sc, _cfg(sc), 2)
-    eng.run(make_batch(vehicle, sc, table))
+    first = eng.run(make_batch(vehicle, sc, table))
     reused = eng.run(make_batch(small, sc, table))
     fresh = WarpEngine(sc, _cfg(sc), 2).run(make_batch(small, sc, table))
     assert eng.compiles == 2
+    assert np.isfinite(fresh["drive_sum_mean"]).all()
+    assert (np.abs(fresh["drive_sum_mean"] - first["drive_sum_mean"]) > 0.5).all()  # the vehicles differ (N m)
     np.testing.assert_array_equal(reused["drive_sum_mean"], fresh["drive_sum_mean"])
 
 
