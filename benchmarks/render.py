@@ -234,17 +234,21 @@ def _e2e_native(*ds: dict) -> str:
     return "; ".join(one(d) for d in ds)
 
 
-def _profile(d: dict) -> str:
-    """Per step: MuJoCo Warp alone, the engine, and the engine's device time by kind (benchmarks/warp_profile.py)."""
+def _profile(d: dict, c: dict) -> str:
+    """Per step: MuJoCo Warp alone, the engine, and the engine's device time by kind (benchmarks/warp_profile.py);
+    `c`, a second profile that names each copy's source: the share of copies made once a run, before its steps."""
     ms = {r["name"]: r["ms_per_step"] for r in d["rows"]}
     p = d["profile warp engine"]
     kinds = p["by_kind_us_per_step"]
     idle = p["span_us_per_step"] - p["busy_us_per_step"]
+    once = sum(v for k, v in c["profile warp engine"]["copies_us_per_step"].items() if "convert_element_type" in k)
     return (
         f"MuJoCo Warp alone **{ms['MuJoCo Warp alone']:.2f} ms** a step, the engine **{ms['warp engine']:.2f} ms**, "
         f"its Warp calls in a scan {ms['physics in JAX']:.2f} ms; of the engine's step (profiled): MuJoCo Warp's "
         f"kernels **{kinds['warp'] / 1e3:.2f} ms**, XLA's (tyre, drive, statistics) {kinds['xla'] / 1e3:.2f} ms, "
-        f"copies {kinds['copy'] / 1e3:.2f} ms, the GPU idle {idle / 1e3:.2f} ms"
+        f"copies {kinds['copy'] / 1e3:.2f} ms, the GPU idle {idle / 1e3:.2f} ms; the copies are mostly made once a "
+        f"run, before its steps (the parameters' conversions on the device, {once * c['steps'] / 1e3:.0f} ms a run in "
+        "the second file; now on the host)"
     )
 
 
@@ -316,9 +320,9 @@ ROWS = [
     Row(
         "Where a step of the warp engine goes (131,072 variants x 400 steps, slip tyre), from a JAX profiler trace, "
         "against MuJoCo Warp alone and the engine's own Warp calls in a JAX scan without tyre, drive or statistics",
-        ["h100-warp-profile.json"],
+        ["h100-warp-profile.json", "h100-copies-warp-profile.json"],
         _profile,
-        "one fresh H100, 16 cores",
+        "one fresh H100, 16 cores (the second file another H100, 200 steps)",
         "`python benchmarks/warp_profile.py --size 131072 --label h100`",
     ),
     Row(

@@ -57,10 +57,14 @@ def device_split(trace_dir: str, steps: int) -> dict:
     dev = [e for e in events if e.get("ph") == "X" and "gpu" in pname.get(e.get("pid"), "").lower()]
     if not dev:
         return {"error": "no device events", "processes": sorted(set(pname.values()))[:20]}
-    by_kind, by_name = defaultdict(float), defaultdict(float)
+    by_kind, by_name, args, copies = defaultdict(float), defaultdict(float), {}, defaultdict(float)
     for e in dev:
         by_kind[_kind(e["name"])] += e["dur"]
         by_name[e["name"]] += e["dur"]
+        args.setdefault(e["name"], {k: str(v)[:200] for k, v in e.get("args", {}).items()})  # one event's, e.g. hlo_op
+        if _kind(e["name"]) == "copy":  # where each copy comes from: XLA's program and instruction, or none (Warp)
+            a = e.get("args", {})
+            copies[f"{e['name']} {a.get('hlo_module', '-')} {a.get('hlo_op', '-')}"] += e["dur"]
     start = min(e["ts"] for e in dev)
     end = max(e["ts"] + e["dur"] for e in dev)
     busy = sum(by_kind.values())
@@ -73,6 +77,8 @@ def device_split(trace_dir: str, steps: int) -> dict:
         "kernels": len(dev),
         "kernels_per_step": len(dev) / steps,
         "top_us_per_step": [[k[:120], v * us] for k, v in top],
+        "top_args": {k[:120]: args[k] for k, _ in top[:8]},
+        "copies_us_per_step": dict(sorted(((k, v * us) for k, v in copies.items()), key=lambda kv: -kv[1])[:15]),
     }
 
 def main(argv=None) -> None:

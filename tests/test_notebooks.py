@@ -23,9 +23,9 @@ def test_notebooks_exist():
     ]
 
 
-# the first three (the seed's scenarios, torque envelopes, motor sizing: the main journeys) in the default run; the
-# four that run longer sweeps (13-29 s each on 2 cores beside another test worker) in -m slow
-DEFAULT_RUN = 3
+# the first two (the seed's scenarios, torque envelopes) in the default run; the others (11-29 s each on 2 cores
+# beside another test worker) in -m slow, where motor sizing's notebook runs beside test_size's and test_sizing_light's
+DEFAULT_RUN = 2
 
 
 @pytest.mark.parametrize(

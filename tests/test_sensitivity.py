@@ -257,7 +257,9 @@ def payload256(tmp_path_factory):
 
 
 @pytest.mark.parametrize(
-    "n, max_conf", [(256, 0.2), pytest.param(1024, 0.1, marks=pytest.mark.slow)], ids=["N256", "N1024"]
+    "n, max_conf",
+    [pytest.param(256, 0.2, marks=pytest.mark.slow), pytest.param(1024, 0.1, marks=pytest.mark.slow)],
+    ids=["N256", "N1024"],
 )
 def test_slope_and_payload_match_the_closed_form_decomposition(request, tmp_path, vehicle, n, max_conf):
     """With payload mass swept as well (N = 256: 2,048 climbs, about 11 s; slow: N = 1024, 8,192 climbs, with

@@ -245,7 +245,7 @@ def test_sweep_on_warp_records_its_implementation(tmp_path, capsys):
 def test_chunks_reuse_one_program_with_their_own_fields(vehicle):
     """The engine writes each chunk's per-world fields into MuJoCo Warp's model in place and resets every world:
     chunk B (A's variants swapped) reads A's rows swapped, A run again reads A's bits, on one compiled program."""
-    sc = _scenario()
+    sc = make_scenario("straight_line", total_time=1.0, ramp_time=0.5)  # three runs: a short one each
     eng = WarpEngine(sc, _cfg(sc), 2)
     table = {"payload.mass": np.array([0.0, 40.0]), "wheel.radius": np.array([0.17, 0.22]), "slope_deg": [4.0, 10.0]}
     swapped = {k: np.asarray(v)[::-1] for k, v in table.items()}
