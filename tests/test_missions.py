@@ -118,6 +118,7 @@ def test_one_segment_mission_is_the_straight_line_on_mujoco_c(straight, slope_de
         np.testing.assert_allclose(m[col], ref[col], rtol, atol, err_msg=col)
 
 
+@pytest.mark.slow  # the same mission on MuJoCo C and on warp stays in the default run
 def test_one_segment_mission_on_mjx_matches(straight):
     """MJX (JAX implementation, float64): the mission's statistics, reduced in the scan's carry and
     sloped by the body forces, are the straight line's of MuJoCo C on a tilted plane (measured

@@ -275,7 +275,7 @@ def test_a_world_out_of_contacts_is_diverged(vehicle):
     """Contact buffers too small for the wheels (one contact a world where the four cylinder wheels need eight):
     MuJoCo Warp drops contacts and flags the world; every variant is reported diverged, as none is with the
     default buffers."""
-    sc = _scenario()
+    sc = make_scenario("straight_line", total_time=1.0, ramp_time=0.5)  # two programs: a short run each
     table = {"friction": np.array([0.5, 0.9])}
     short = WarpEngine(sc, _cfg(sc), 2, contacts_per_world=1).run(make_batch(vehicle, sc, table))
     np.testing.assert_array_equal(short["status_code"], [1, 1])
