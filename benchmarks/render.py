@@ -234,6 +234,15 @@ def _e2e_native(*ds: dict) -> str:
     return "; ".join(one(d) for d in ds)
 
 
+def _params_ab(d: dict) -> str:
+    """The engine's ratio to MuJoCo Warp alone per tree of an alternated A/B (h100-params-ab-warp-profile.json)."""
+    ratio = {"new": [], "old": []}
+    for r in d["runs"]:
+        ratio[r["tree"]] += [x["ratio_to_alone"] for x in r["rows"] if x["name"] == "warp engine"]
+    now, before = sorted(ratio["new"]), sorted(ratio["old"])
+    return f"now **{now[0]:.3f}-{now[-1]:.3f}x**, before {before[0]:.3f}-{before[-1]:.3f}x"
+
+
 def _profile(d: dict, c: dict) -> str:
     """Per step: MuJoCo Warp alone, the engine, and the engine's device time by kind (benchmarks/warp_profile.py);
     `c`, a second profile that names each copy's source: the share of copies made once a run, before its steps."""
@@ -316,6 +325,14 @@ ROWS = [
         _e2e_native,
         "three fresh H100 hosts, 16 cores each (the third after issue 46's review fixes)",
         "`python benchmarks/end_to_end.py benchmarks/slope_100k.yaml --warm 2`",
+    ),
+    Row(
+        "The warp engine against MuJoCo Warp alone after issue 46's review fixes, 131,072 variants x 400 steps, slip "
+        "tyre: its parameters converted on the device (before) or on the host (now), alternated in one call",
+        ["h100-params-ab-warp-profile.json"],
+        _params_ab,
+        "one fresh H100, 16 cores",
+        "`python benchmarks/warp_profile.py --size 131072 --steps 400 --repeat 3`, each tree twice",
     ),
     Row(
         "Where a step of the warp engine goes (131,072 variants x 400 steps, slip tyre), from a JAX profiler trace, "
