@@ -85,7 +85,7 @@ def batched_fields(batch: VariantBatch) -> dict[str, np.ndarray]:
         if name.startswith("opt."):
             ok = name[4:] in options
         else:
-            ok = name in per_world and name not in course.WARP_PER_MODEL
+            ok = name in per_world  # its field spec leads with "*": one value per world
         if not ok:
             raise ConfigError(
                 f"model field {name} is one per model in MuJoCo Warp, so the parameters that change it cannot vary "

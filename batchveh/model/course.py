@@ -71,8 +71,6 @@ TERRAIN_SINK = 0.002  # m
 # geom-type pairs MJX's JAX implementation has no collision function for (its collision_driver table;
 # tests/test_course.py checks this against it). MuJoCo C and MuJoCo Warp collide every pair made here.
 JAX_CANNOT_COLLIDE = {("cylinder", "box"), ("cylinder", "hfield")}
-# fields MuJoCo Warp keeps one per model, not per world (tests/test_course.py checks this against MJX)
-WARP_PER_MODEL = ("hfield_data",)
 _TYPE = {int(t): name.removeprefix("mjGEOM_").lower() for name, t in mujoco.mjtGeom.__members__.items()}
 
 
