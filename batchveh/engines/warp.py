@@ -30,7 +30,7 @@ import numpy as np
 
 from batchveh.config import ConfigError
 from batchveh.engines.common import pad, warp_installed
-from batchveh.engines.mjx import MjxEngine
+from batchveh.engines.mjx import MjxEngine, host_params
 from batchveh.model import course
 from batchveh.model.vehicle import layout
 from batchveh.stepping.batch import SAMEFRAME, WARP_UNREAD, VariantBatch
@@ -229,10 +229,7 @@ class WarpEngine(MjxEngine):
             fields = batched_fields(batch)
             key = (tuple(sorted(batch.fields)), batch.n, fingerprint(batch.model))
             dt, mass = self._inputs(batch, fields)
-            # float32 on the host, then one transfer: a conversion on the device copied each array, 90 ms of copies
-            # a chunk of 131,072 on one H100; the engine 0.884-0.885x MuJoCo Warp alone against 0.874-0.877x
-            # (400 steps: benchmarks/results/h100-params-ab-warp-profile.json)
-            params = jax.device_put({k: np.asarray(v, np.float32) for k, v in batch.params.items()})
+            params = jax.device_put(host_params(batch, np.float32))
             ahead = None
             if key not in self._fn:
                 ahead = self._ahead(batch, fields)
