@@ -33,7 +33,13 @@ own and the rotor's J N^2), the vehicle's mass at the wheel's radius for a drive
 the time step. The loop's explicit damping is at most KV_SHARE of (I_joint / dt + N^2 K^2 / R): a free wheel
 (no ground) then loses at most that share of its speed error per step and never flips sign step to step.
 Drives: kv = min(bandwidth x I_load, that bound), kp = kv^2 / (4 I_load) (critical damping on the loaded
-wheel). Steering: a triple pole at w, kv = 3 I w, kp = 3 I w^2, ki = I w^3, with kv within the bound.
+wheel). Steering: a triple pole at w on the hub against the tyre's moment, kv = 3 I w, kp = 3 I w^2 + k_tyre,
+ki = I w^3, with kv within the bound; k_tyre is the steering stiffness the tyre takes away where its contact
+leads the steering axis (`tyre_moment_stiffness`: a contact a distance a ahead of the axis puts the lateral force
+C_s N delta at a, turning the wheel further, -a C_s N per rad; docs/motors.md, "The steering loop"). Without it a
+steering motor whose kp the time step caps (76 N m/rad on the 60 kg robot's 1.9 N m motor) let the rear wheels
+(contact 0.05 m ahead of the axis: -170 to -207 N m/rad) steer off. kp stays within KP_SHARE of the step's own
+bound, 4 I / dt^2 less the damping's share (semi-implicit Euler on I, kp, kv).
 Each gain set by the user (`motors.dc_drive_kp`, ...) replaces the derived one.
 """
 
@@ -47,6 +53,9 @@ import numpy as np
 from batchveh.model.motors import COPPER_TEMPCOEF, REFERENCE_TEMP
 
 KV_SHARE = 0.5  # the speed loop's explicit damping: this share of the largest that dt allows on the free joint
+KP_SHARE = 0.5  # the steering's kp: at most this share of the largest that dt allows, (4 - 2 kv dt / I) I / dt^2
+LOAD_FACTOR = 2.0  # the steering's tyre stiffness is taken at this many times a wheel's static load (N = m g / 4):
+# load transfer on a climb, a stop and a bump; an overestimate only stiffens the loop (see `gains`)
 PUSH = 1e-3  # at the current limit, the voltage asks this much more current, so that MuJoCo's saturation clips
 # the drive's numbers per motor (..., 8) in params: `_dc.<name>` (batch.make_batch)
 CONSTANTS = ("K", "R", "V", "force_max", "T_amb", "R_T", "C", "eta", "N", "kp", "kv", "ki", "ff")
@@ -57,6 +66,17 @@ def damping(c: Mapping[str, Any], xp=np) -> Any:
     return (c["N"] * c["K"]) ** 2 / c["R"]
 
 
+def tyre_moment_stiffness(slip_stiffness: Any, wheel_load: Any, lead: Any) -> np.ndarray:
+    """The steering stiffness (N m/rad, >= 0) the tyre's lateral force takes away from each steering hinge.
+
+    A wheel steered by delta off its path slips laterally by delta; the tyre pushes back with C_s N delta at
+    the contact. Where the contact lies a distance a along the path ahead of the steering axis, that force's
+    moment about the axis, a C_s N delta, turns the wheel further: a negative stiffness a C_s N. Behind the axis
+    (a caster) it holds the wheel instead. The vehicle may drive either way, so |a| counts on every wheel.
+    slip_stiffness: C_s (per unit load, 1/rad); wheel_load: N (N); lead: a (m), each broadcast together."""
+    return np.abs(np.asarray(lead, float)) * np.asarray(slip_stiffness, float) * np.asarray(wheel_load, float)
+
+
 def gains(
     c: Mapping[str, np.ndarray],
     inertia: np.ndarray,
@@ -64,6 +84,7 @@ def gains(
     dt: float,
     bandwidth: tuple[Any, Any],
     given: Mapping[str, tuple[Any, Any]],
+    tyre: Any = 0.0,
 ) -> dict[str, np.ndarray]:
     """kp, kv, ki (..., 8) at each joint (N m/rad, N m s/rad, N m/(rad s)), and ff, the inertia the loop
     feeds the reference's acceleration through (kg m^2).
@@ -72,7 +93,14 @@ def gains(
     wheel's spin or the hub's steering inertia with the rotor's J N^2); load (..., 4): the inertia each drive
     moves with the vehicle on its wheels (the joint's and the vehicle's mass / 4 x r^2); dt: the time step;
     bandwidth: (drive, steer) in rad/s, each (...,), 0: the largest the bound allows; given: 'kp', 'kv', 'ki'
-    -> (drive, steer) gains the user set, each (...,), 0: derived."""
+    -> (drive, steer) gains the user set, each (...,), 0: derived; tyre (..., 4): the stiffness the tyre takes
+    from each steering hinge (`tyre_moment_stiffness`, N m/rad), added to the steering's kp.
+
+    The steering's loop on the hub, I s^2 alpha = tau + k alpha (k the tyre's negative stiffness), with tau =
+    kp e + kv de/dt + ki int e: its characteristic I s^3 + kv s^2 + (kp - k) s + ki = I (s + w)^3 for kp = 3 I w^2
+    + k. Taking k above the true one (a lighter wheel, a caster) leaves I s^3 + kv s^2 + (3 I w^2 + d) s + ki,
+    stable for any d >= 0 (Routh: kv (3 I w^2 + d) > I ki); below it by d, stable only for d < 8/3 I w^2, which is
+    why k is taken high (LOAD_FACTOR)."""
     inertia = np.asarray(inertia, float)
     kv_max = KV_SHARE * (inertia / dt + damping(c))
     i_d, i_s = np.asarray(load, float), inertia[..., 4:]
@@ -80,9 +108,11 @@ def gains(
     kv_d = np.where(bw_d > 0, np.minimum(bw_d * i_d, kv_max[..., :4]), kv_max[..., :4])
     kv_s = np.where(bw_s > 0, np.minimum(3 * bw_s * i_s, kv_max[..., 4:]), kv_max[..., 4:])
     w_s = kv_s / (3 * i_s)
+    kp_max = KP_SHARE * (4 - 2 * kv_s * dt / i_s) * i_s / dt**2
+    kp_s = np.minimum(3 * i_s * w_s**2 + np.asarray(tyre, float), kp_max)
     derived = {
         "kv": np.concatenate([kv_d, kv_s], axis=-1),
-        "kp": np.concatenate([kv_d**2 / (4 * i_d), 3 * i_s * w_s**2], axis=-1),
+        "kp": np.concatenate([kv_d**2 / (4 * i_d), kp_s], axis=-1),
         "ki": np.concatenate([np.zeros_like(kv_d), i_s * w_s**3], axis=-1),
     }
     out = {"ff": np.concatenate([i_d, i_s], axis=-1)}

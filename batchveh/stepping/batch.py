@@ -220,8 +220,10 @@ def make_batch(
 def drive_gains(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], params, scenario, n: int) -> dict:
     """Each variant's drive gains `_dc.kp`, `_dc.kv`, `_dc.ki` (n, 8) (drive.gains): from its own inertia at
     each motor joint (dof_M0: the wheel's or hub's with the rotor's J N^2), its mass over four wheels at its
-    wheel radius, its motors' constants, the time step and the gains and bandwidths the user set. A towing
-    wheel's drive gets none."""
+    wheel radius, its motors' constants, the time step and the gains and bandwidths the user set; the steering's
+    kp also from the tyre's moment (drive.tyre_moment_stiffness) at its own slip stiffness, LOAD_FACTOR times its
+    static wheel load and its contact's lead along the vehicle from the steering axis. A towing wheel's drive
+    gets none."""
     lay = layout(model)
     m0 = np.broadcast_to(fields.get("dof_M0", model.dof_M0), (n, model.nv))[:, lay.motor_dof]
     mass = np.broadcast_to(fields.get("body_mass", model.body_mass), (n, model.nbody)).sum(-1)
@@ -229,6 +231,13 @@ def drive_gains(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], params,
     load = m0[:, :4] + (mass * r * r / 4)[:, None]
     p = {k: np.broadcast_to(np.asarray(params[k], float), (n,)) for k in DRIVE}
     c = {k: np.asarray(params[f"_dc.{k}"], float) for k in ("N", "K", "R")}
+
+    def col(k):
+        return np.broadcast_to(np.asarray(params[k], float), (n,))
+
+    wheel_load = drive.LOAD_FACTOR * mass * col("gravity") / 4
+    lead = col("wheel.x_cg") - col("chassis.length") / 2  # the contact from the steering axis, along the vehicle
+    tyre = drive.tyre_moment_stiffness(col("tyre.slip_stiffness"), wheel_load, lead)[:, None]
     g = drive.gains(
         c,
         m0,
@@ -240,6 +249,7 @@ def drive_gains(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], params,
             "kv": (p["motors.dc_drive_kv"], p["motors.dc_steer_kv"]),
             "ki": (np.zeros(n), p["motors.dc_steer_ki"]),
         },
+        tyre,
     )
     free = np.array([0.0 if tow else 1.0 for tow in scenario.towing] + [1.0] * 4)
     return {f"_dc.{k}": np.broadcast_to(v * free, (n, 8)).copy() for k, v in g.items()}
