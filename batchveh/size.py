@@ -10,8 +10,12 @@ Three phases, one progress bar:
 2. the screen: every catalogue motor against that demand (`batchveh.analysis.motors.screen`), for the drives
    and, unless --steer names one, for the steering;
 3. in the loop (`in_loop`): the screen's choice and the next smaller motor, then larger ones, smallest first, as
-   DC motors driven by batchveh's drive, from the hot steady state of back-to-back runs, until one covers
-   --share of the variants it could simulate.
+   DC motors driven by batchveh's drive, from the hot steady state of the run repeated (the spec's `duty`: the
+   share of the time it runs, 1 for back to back), until one covers --share of the variants it could simulate.
+   Each run also confirms the steering motor: where the steering misses more than 1 - share of the variants on
+   its own criteria (STEER_REASONS: lost its angle, at its current limit or voltage line for more than 5% of the
+   run, RMS, heat, gearhead), the next larger steering motor runs with the same drive. A steering miss is never
+   counted against a drive.
 It ends with one line: the chosen motor and gearhead, its coverage, and where the report is (OUT/report.html,
 report.md, figures/, verdicts.parquet: batchveh/analysis/report.py).
 
@@ -82,23 +86,31 @@ def wheel_accel(spec: Any, df: Any) -> Any:
     return col("speed_kmh", sc.speed_kmh) / 3.6 / col("wheel.radius", spec.vehicle.wheel.radius) / ramp
 
 
-def steering(df: Any, cat: dict[str, Any], share: float, params: list[str]) -> str:
-    """The steering motor: the smallest that the screen passes for the steering's demand and whose current limit
-    also holds the demand's peak (eta N K i_max above the low-pass peak) on `share` of the variants. A steering
-    motor that reaches its current limit loses its angle (measured: the 60 kg robot's 1.9 N m steering at its
-    limit 88% of a climb, 107 deg off); a drive there only falls behind. Else the largest."""
-    import numpy as np
+def steering(table: Any, share: float) -> str:
+    """The steering motor to start the loop with: the smallest that the steering's screen (`table`, the screen of
+    group 'steer', whose `peak` reason holds the demand's low-pass peak against the current's bound) passes on
+    `share` of the variants; else the largest. The loop then confirms it (`size`)."""
+    ok = table[table["coverage"] >= share]
+    return (ok if len(ok) else table)["motor"].iloc[0 if len(ok) else -1]
 
-    from batchveh.analysis.motors import demand, screen
 
-    _, table, _ = screen(df, cat, share=share, group="steer", params=params)
-    peak = demand(df, "steer")["peak"].to_numpy()
-    for _, row in table.iterrows():
-        c = cat[row["motor"]].resolved()
-        held = c["eta"] * c["N"] * c["K"] * c["i_max"] if c["i_max"] else np.inf
-        if row["coverage"] >= share and np.mean(peak <= held) >= share:
-            return row["motor"]
-    return table["motor"].iloc[-1]
+def not_run(table: Any, runs: list[str], ran: list[str], chosen: str | None, best: str | None) -> dict[str, str]:
+    """Why each motor of the screen's `table` did not run in the loop: {name: why}."""
+    ranked = list(table["motor"])
+    cover = dict(zip(table["motor"], table["coverage"], strict=True))
+    out = {}
+    for name in ranked:
+        if name in ran:
+            continue
+        if chosen is not None and ranked.index(name) > ranked.index(chosen):
+            out[name] = f"a smaller motor ({chosen}) covers in the loop"
+        elif name not in runs and best is None:
+            out[name] = f"screen {cover[name]:.1%}, more than {NEAR:.0%} below the best screen coverage"
+        elif name not in runs:
+            out[name] = f"screen {cover[name]:.1%}: below the loop's first, the one under the screen's {best}"
+        else:
+            out[name] = "not reached"
+    return out
 
 
 def candidates(screen_table: Any, best: str | None) -> list[str]:
@@ -188,23 +200,37 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
     t0 = time.perf_counter()
     accel = wheel_accel(spec, df)
     armature = spec.vehicle.motors.armature
-    best, table, _ = screen(df, cat, share=args.share, armature=armature, accel=accel, params=list(spec.params))
-    steer = args.steer or steering(df, cat, args.share, list(spec.params))
+    params = list(spec.params)
+    best, table, _ = screen(df, cat, share=args.share, armature=armature, accel=accel, params=params, duty=spec.duty)
+    _, steer_table, _ = screen(df, cat, share=args.share, group="steer", params=params, duty=spec.duty)
+    steer = args.steer or steering(steer_table, args.share)
     walls["screen"] = time.perf_counter() - t0
     runs = candidates(table, best)
     bar.total = n * (1 + HOT_RUNS * len(runs))
-    rows, detail, chosen = [], {}, None
+    rows, detail, chosen, steer_rows = [], {}, None, []
+    ranked_steer = list(steer_table["motor"])
     t0 = time.perf_counter()
-    for name in runs:
-        bar.set_description(f"{spec.name}: in the loop, {name}")
+    i = 0
+    while i < len(runs):  # the drives smallest first; the steering confirmed on each run, walked up where it fails
+        name = runs[i]
+        bar.set_description(f"{spec.name}: in the loop, {name}, steering {steer}")
         bar.refresh()
-        got, t, d = in_loop(spec, df, args.catalogue, [name], steer=steer, share=args.share, backend=args.backend)
+        got, t, d = in_loop(
+            spec, df, args.catalogue, [name], steer=steer, share=args.share, backend=args.backend, duty=spec.duty
+        )
+        bar.update(n * HOT_RUNS)
+        steer_rows.append(t.assign(drive=name))
+        larger = ranked_steer[ranked_steer.index(steer) + 1 :]
+        if t["steer_coverage"].iloc[0] < args.share and args.steer is None and larger:
+            steer = larger[0]  # the steering fails on its own criteria: the next larger, the same drive again
+            bar.total += n * HOT_RUNS
+            continue
         rows.append(t)
         detail.update(d)
-        bar.update(n * HOT_RUNS)
         if got is not None:
             chosen = got
             break
+        i += 1
     bar.total = bar.n
     bar.set_description(f"{spec.name}: report")
     bar.refresh()
@@ -212,7 +238,7 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
     import pandas as pd
 
     loop = pd.concat(rows, ignore_index=True)
-    hottest = chosen or runs[-1]
+    hottest = chosen or str(loop.sort_values("coverage", kind="stable")["motor"].iloc[-1])
     d = detail[hottest]
     temps = d[[f"drive_{c}_winding_temp_peak" for c in ("lf", "rf", "lr", "rr")]].max(axis=1).to_numpy()
     worst = int(np.argmax(temps))
@@ -234,6 +260,10 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
         chosen=chosen,
         steer=steer,
         share=args.share,
+        steer_screen=steer_table,
+        steer_loop=pd.concat(steer_rows, ignore_index=True),
+        not_run=not_run(table, runs, list(loop["motor"]), chosen, best),
+        duty=spec.duty,
         catalogue=cat,
         battery=battery_of(args.catalogue),
         trace=series,

@@ -36,10 +36,13 @@ DC = DCMotor(
 )
 
 
-def _frame(rms, peak, speed):
+def _frame(rms, peak, speed, window=None):
+    """A servo sweep's rows by hand: `peak` the whole run's low-pass peak (a ramp's too), `window` the steady
+    window's (default: the RMS, a steady run's torque)."""
     cols = {"wheel_speed": speed, "slope_deg": np.arange(len(rms), dtype=float)}
     for w in WHEELS:
         cols[f"{w}_rms"], cols[f"{w}_peak_lp_all"] = rms, peak
+        cols[f"{w}_peak_lp"] = rms if window is None else window
     return pd.DataFrame({k: np.asarray(v, float) for k, v in cols.items()})
 
 
@@ -78,14 +81,14 @@ def test_demand_is_the_worst_of_the_four_drives_at_the_wheel():
 def test_screen_names_each_reason_from_closed_forms():
     """One variant per reason, each just past its limit, and one that fits every limit."""
     df = _frame(
-        # fits; rms: 3.3 N m = 4.125 A > 4 A; thermal: runaway-free but hot; voltage; speed; gear torque
-        rms=[2.0, 3.3, 3.1, 1.0, 0.5, 1.0],
-        peak=[4.0, 3.3, 3.1, 11.0, 0.5, 12.5],
-        speed=[10.0, 10.0, 10.0, 10.0, 19.5, 5.0],
+        # fits; rms: 3.3 N m = 4.125 A > 4 A; thermal: runaway-free but hot; voltage; speed; gear torque; the
+        # steady window's peak 3.3 N m = 4.125 A above the 4 A limit (its RMS 2 N m fits)
+        rms=[2.0, 3.3, 3.1, 1.0, 0.5, 1.0, 2.0],
+        peak=[4.0, 3.3, 3.1, 11.0, 0.5, 12.5, 3.3],
+        speed=[10.0, 10.0, 10.0, 10.0, 19.5, 5.0, 10.0],
+        window=[2.0, 3.3, 3.1, 1.0, 0.5, 1.0, 3.3],
     )
-    res = screen_one(
-        pd.DataFrame({"rms": df.drive_lf_rms, "peak": df.drive_lf_peak_lp_all, "speed": df.wheel_speed}), DC
-    )
+    res = screen_one(demand(df), DC)
     # at the wheel, 0.8 N m per A: variant 0 draws 2.5 A RMS, 5 A peak at 200 rad/s of motor speed
     assert res.current_rms[0] == pytest.approx(2.0 / 0.8) and res.current_peak[0] == pytest.approx(5.0)
     assert res.voltage_peak[0] == pytest.approx(5.0 * 1.2 + 0.05 * 200.0)
@@ -94,11 +97,12 @@ def test_screen_names_each_reason_from_closed_forms():
     assert res.winding_temperature[2] == pytest.approx(25 + heat / (1 - 0.0039 * heat))
     expect = {
         0: set(),
-        1: {"rms", "thermal"},  # 4.125 A: over 4 A, and 25 + 235 deg C
+        1: {"rms", "thermal", "peak"},  # 4.125 A: over 4 A, and 25 + 235 deg C; its window peaks at 4.125 A
         2: {"thermal"},  # 3.875 A, under 4 A, but 25 + 187 deg C (108 K before R(T) feeds back)
         3: {"voltage"},  # 13.75 A x 1.2 + 0.05 x 200 = 26.5 V > 24 V
         4: set(),  # 19.5 rad/s at the wheel = 390 rad/s at the motor: under no-load 480 and the gear's 400
         5: {"gear_torque"},  # 12.5 N m peak > 12 N m intermittent
+        6: {"peak"},  # the window's 3.3 N m = 4.125 A > 4 A; 2.5 A RMS; 4.125 A x 1.2 + 10 = 14.95 V < 24 V
     }
     got = {i: {r for r in REASONS if res[r][i]} for i in range(len(df))}
     assert got == expect, got
@@ -152,11 +156,11 @@ def _mission_frame(spans: dict) -> pd.DataFrame:
 
 def test_a_mission_span_is_screened_on_its_own_rms_peak_and_peak_speed():
     """span='mission' or a segment's prefix reads <span>_<motor>_rms, _peak_lp and _speed_peak. The climb's
-    second row: 3.3 N m RMS = 4.125 A > 4 A (and 25 + 235 deg C), 4 N m peak = 5 A at 22 rad/s at the wheel =
-    440 rad/s at the motor: 5 x 1.2 + 0.05 x 440 = 28 V > 24 V, and 440 > the gearhead's 400 rad/s input (but
-    under the no-load 480). The whole mission's rows fit."""
+    second row: 3.3 N m RMS = 4.125 A > 4 A (and 25 + 235 deg C), 4 N m peak = 5 A, above the 4 A limit, at 22
+    rad/s at the wheel = 440 rad/s at the motor: 5 x 1.2 + 0.05 x 440 = 28 V > 24 V, and 440 > the gearhead's 400
+    rad/s input (but under the no-load 480). The whole mission's rows fit (3 N m peak = 3.75 A)."""
     df = _mission_frame(
-        {"mission": ([2.0, 2.0], [4.0, 4.0], [10.0, 10.0]), "seg3_climb": ([2.0, 3.3], [4.0, 4.0], [10.0, 22.0])}
+        {"mission": ([2.0, 2.0], [3.0, 3.0], [10.0, 10.0]), "seg3_climb": ([2.0, 3.3], [3.0, 4.0], [10.0, 22.0])}
     )
     best, table, failing = screen(df, {"dc-test": DC}, share=1.0, span="mission")
     assert best == "dc-test" and table.coverage[0] == 1.0
@@ -164,7 +168,7 @@ def test_a_mission_span_is_screened_on_its_own_rms_peak_and_peak_speed():
     assert best is None and table.coverage[0] == 0.5
     bad = failing["dc-test"]
     assert list(bad.index) == [1]
-    assert {r for r in REASONS if bad.loc[1, r]} == {"rms", "thermal", "voltage", "gear_speed"}
+    assert {r for r in REASONS if bad.loc[1, r]} == {"rms", "thermal", "voltage", "gear_speed", "peak"}
     need = demand(df, span="seg3_climb")
     assert list(need.speed) == [10.0, 22.0] and list(need.rms) == [2.0, 3.3]
 

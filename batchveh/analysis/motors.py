@@ -53,14 +53,19 @@ GROUPS = {"drive": WHEELS, "steer": ("steer_lf", "steer_rf", "steer_lr", "steer_
 
 # --- DC motors from datasheets (batchveh.model.motors): the fast screen, with the reason of each failure ---
 
-REASONS = ("rms", "thermal", "voltage", "speed", "gear_torque", "gear_speed")
+# One list of criteria for both passes (the screen on the servo's demand, the loop on the motor's own run), so
+# that each reason is counted the same way in both; `DIFFER` says where the two passes read a reason differently.
+REASONS = ("rms", "thermal", "voltage", "peak", "speed", "gear_torque", "gear_speed", "energy", "tracking")
 REASON_TEXT = {
-    "rms": "RMS current above the continuous current",
-    "thermal": "steady winding temperature above its maximum (one-node model with R(T))",
+    "rms": "RMS current, at the spec's duty, above the continuous current",
+    "thermal": "steady winding temperature, at the spec's duty, above its maximum (one-node model with R(T))",
     "voltage": "the peak torque at speed needs more than the bus voltage (the voltage line)",
+    "peak": "the steady window's low-pass peak torque needs more than the current limit allows (eta N K i_max)",
     "speed": "the wheel speed needs more than the no-load speed at the bus voltage",
     "gear_torque": "wheel torque above the gearhead's continuous or intermittent rating",
     "gear_speed": "motor speed above the gearhead's input speed",
+    "energy": "the battery's energy or power (the loop only: the servo's run has no electrical power)",
+    "tracking": "short of the imposed speed with no limit held (the loop only: the drive's own loop)",
 }
 
 
@@ -81,15 +86,20 @@ def demand(df: pd.DataFrame, group: str = "drive", span: str | None = None) -> p
     if span is None:
         out["rms"] = df[[f"{m}_rms" for m in names]].abs().max(axis=1)
         out["peak"] = df[[f"{m}_peak_lp_all" for m in names]].abs().max(axis=1)
+        window = [f"{m}_peak_lp" for m in names]  # a frame without them (made by hand): the whole run's
+        out["peak_window"] = df[window].abs().max(axis=1) if window[0] in df else out["peak"]
         out["speed"] = df["wheel_speed"].abs() if group == "drive" else 0.0
     else:
         out["rms"] = df[[f"{span}_{m}_rms" for m in names]].abs().max(axis=1)
         out["peak"] = df[[f"{span}_{m}_peak_lp" for m in names]].abs().max(axis=1)
+        out["peak_window"] = out["peak"]
         out["speed"] = df[[f"{span}_{m}_speed_peak" for m in names]].abs().max(axis=1)
     return out
 
 
-def screen_one(need: pd.DataFrame, motor: Any, *, armature: float = 0.0, accel: Any = 0.0) -> pd.DataFrame:
+def screen_one(
+    need: pd.DataFrame, motor: Any, *, armature: float = 0.0, accel: Any = 0.0, duty: float = 1.0
+) -> pd.DataFrame:
     """Per variant, whether `motor` (a batchveh.model.motors.DCMotor with its gearhead) covers the demand
     `need` (`demand`'s columns), and why not (one boolean column per REASONS entry, True = fails).
 
@@ -97,15 +107,16 @@ def screen_one(need: pd.DataFrame, motor: Any, *, armature: float = 0.0, accel: 
     the wheel: the vehicle's motors.armature); the candidate's rotor reflects J N^2, so its peak
     torque is the demand's plus (J N^2 - armature) x `accel` (rad/s^2 at the wheel, each variant's
     own, e.g. its speed over its ramp time). At the motor: i = T / (eta N K); the voltage at the peak
-    v = i_peak R + K N w (the peak taken at the variant's speed: conservative); the winding's steady
-    rise dT = R_T i_rms^2 R0 (1 + alpha (T_a + dT - 25)), solved in closed form (runaway where
-    R_T i^2 R0 alpha >= 1)."""
+    v = i_peak R + K N w (the peak taken at the variant's speed: conservative); the peak current against the
+    current limit i_max (the drive clips there); the run repeated for `duty` of the time (the spec's `duty`, 1:
+    back to back): the RMS current over time sqrt(duty) i_rms, and the winding's steady rise dT = R_T duty
+    i_rms^2 R0 (1 + alpha (T_a + dT - 25)), solved in closed form (runaway where R_T duty i^2 R0 alpha >= 1)."""
     from batchveh.model.motors import COPPER_TEMPCOEF, REFERENCE_TEMP
 
     c = motor.resolved()
     n, eta, k, r = c["N"], c["eta"], c["K"], c["R"]
     peak = need["peak"] + np.maximum(c["J"] * n * n - armature, 0.0) * np.abs(accel)
-    i_rms, i_peak = need["rms"] / (eta * n * k), peak / (eta * n * k)
+    i_rms, i_peak = np.sqrt(duty) * need["rms"] / (eta * n * k), peak / (eta * n * k)
     w_motor = need["speed"] * n
     out = pd.DataFrame(index=need.index)
     out["current_rms"], out["current_peak"], out["motor_speed"] = i_rms, i_peak, w_motor
@@ -117,6 +128,8 @@ def screen_one(need: pd.DataFrame, motor: Any, *, armature: float = 0.0, accel: 
     out["rms"] = i_rms > c["i_max"] if c["i_max"] > 0 else False
     out["thermal"] = out["winding_temperature"] > c["T_max"] if c["R_T"] > 0 else False
     out["voltage"] = out["voltage_peak"] > c["V"]
+    window = need["peak_window"] if "peak_window" in need else need["peak"]
+    out["peak"] = window / (eta * n * k) > c["i_max"] if c["i_max"] > 0 else False
     out["speed"] = w_motor > c["V"] / k
     gear_torque = np.zeros(len(need), bool)
     if motor.gear_max_continuous_torque is not None:
@@ -125,6 +138,8 @@ def screen_one(need: pd.DataFrame, motor: Any, *, armature: float = 0.0, accel: 
         gear_torque |= peak.to_numpy() > motor.gear_max_intermittent_torque
     out["gear_torque"] = gear_torque
     out["gear_speed"] = w_motor > motor.gear_max_input_speed if motor.gear_max_input_speed is not None else False
+    out["energy"] = False
+    out["tracking"] = False
     out["fits"] = ~out[list(REASONS)].any(axis=1)
     return out
 
@@ -139,6 +154,7 @@ def screen(
     armature: float = 0.0,
     accel: Any = 0.0,
     params: list[str] | None = None,
+    duty: float = 1.0,
 ) -> tuple[str | None, pd.DataFrame, dict[str, pd.DataFrame]]:
     """The fast screen of a sweep's ideal-servo demand against DC motors with their gearheads.
 
@@ -177,7 +193,7 @@ def screen(
     rows, failing = [], {}
     for name, motor in catalogue.items():
         c = motor.resolved(name)
-        res = screen_one(need, motor, armature=armature, accel=accel)
+        res = screen_one(need, motor, armature=armature, accel=accel, duty=duty)
         row = {
             "motor": name,
             "gear_ratio": c["N"],
@@ -195,17 +211,43 @@ def screen(
 
 # --- the second pass: the screen's survivors in the loop, from the hot steady state ---
 
-IN_LOOP_REASONS = ("voltage", "peak", "speed", "thermal", "energy", "gear_torque", "gear_speed", "steering")
+IN_LOOP_REASONS = REASONS  # the loop counts the screen's reasons (kept under its old name too)
 STEER_LOST_DEG = 5.0  # a steering angle more than this far from the imposed one: the steering motor lost it
+STEER_LIMIT_SHARE = 0.05  # a steering motor at its current limit or voltage line for more than 5% of the run
 IN_LOOP_TEXT = {
+    "rms": "a drive's RMS current over the steady window, at the spec's duty, above its continuous current",
+    "thermal": "a winding above its maximum temperature, in the hot steady state of the run repeated at the duty",
     "voltage": "fell short of the imposed speed with a drive at its voltage line (the bus voltage)",
     "peak": "fell short of the imposed speed with a drive at its current limit (not torque enough)",
-    "speed": "fell short of the imposed speed (neither limit held for more than 1% of the run)",
-    "thermal": "a winding above its maximum temperature, from the hot steady state of back-to-back runs",
-    "energy": "the run's bus energy above the battery's, or its peak power above the battery's",
+    "speed": "the servo's wheel speed above the no-load speed at the bus voltage (as the screen)",
     "gear_torque": "wheel torque above the gearhead's continuous (RMS) or intermittent (peak) rating",
     "gear_speed": "motor speed above the gearhead's input speed",
-    "steering": "a steering motor could not hold its angle (more than 5 deg off): the steering motor, not the drive",
+    "energy": "the run's bus energy above the battery's, or its peak power above the battery's",
+    "tracking": "fell short of the imposed speed with neither limit held for more than 1% of the run",
+}
+# where the two passes read a reason differently (the report prints it beside each reason's two counts)
+DIFFER = {
+    "rms": "screen: the servo's torque over eta N K; loop: the current the motor carried, which the drive clips "
+    "at i_max, so a motor short of RMS current falls short at its current limit there (counted as peak)",
+    "thermal": "screen: the steady window's RMS held for ever; loop: the whole run (its ramp too), repeated",
+    "voltage": "screen: the peak torque at the mean speed (conservative); loop: short of speed at the line",
+    "peak": "screen: the window's low-pass peak above the current's bound; loop: short of speed at that bound "
+    "(a peak the loop rides through is no miss; a ramp that falls behind into the window is)",
+    "speed": "the same: the servo's mean wheel speed against the no-load speed",
+    "gear_torque": "the same ratings; screen on the servo's torque, loop on the motor's",
+    "gear_speed": "the same rating; screen: the servo's mean wheel speed, loop: the motor's own (a wheel may spin)",
+    "energy": "the loop only (the servo's run draws no current)",
+    "tracking": "the loop only (the servo holds its speed by construction)",
+}
+# the steering motor's criteria in the loop: the screen's, where they apply, and `lost`, which only the loop sees
+STEER_REASONS = ("rms", "thermal", "voltage", "peak", "gear_torque", "lost")
+STEER_TEXT = {
+    "rms": "a steering motor's RMS current, at the duty, above its continuous current",
+    "thermal": "a steering winding above its maximum temperature in the hot steady state",
+    "voltage": "a steering motor at its voltage line for more than 5% of the run",
+    "peak": "a steering motor at its current limit for more than 5% of the run",
+    "gear_torque": "steering torque above the gearhead's continuous (RMS) or intermittent (peak) rating",
+    "lost": "a steering angle more than 5 deg off the imposed one",
 }
 
 
@@ -242,13 +284,14 @@ def load_battery(path: str | Path) -> Battery:
     return from_mapping(Battery, keep, f"{path}: battery")
 
 
-def _hot_start(gap: np.ndarray, duration: float, tau: float) -> np.ndarray:
-    """The change of start rise that closes `gap` = end(s) - s (back-to-back runs end where they start), one
-    Newton step on the linear one-node model: a start rise s decays as s exp(-t / tau), so end(s) ~ end(0) +
-    s exp(-duration / tau), and from s = 0 the step lands on end(0) / (1 - exp(-duration / tau))."""
+def _hot_start(gap: np.ndarray, duration: float, tau: float, rest: float = 0.0) -> np.ndarray:
+    """The change of start rise that closes `gap` = end(s) exp(-rest / tau) - s (runs repeated with `rest` s at
+    standstill between them start where the last one, cooled over the rest, left off), one Newton step on the
+    linear one-node model: a start rise s decays as s exp(-t / tau), so end(s) ~ end(0) + s exp(-duration / tau),
+    and from s = 0 the step lands on end(0) e / (1 - exp(-(duration + rest) / tau)), e = exp(-rest / tau)."""
     if tau <= 0:
         return np.zeros_like(gap)
-    return gap / (1.0 - np.exp(-duration / tau))
+    return gap / (1.0 - np.exp(-(duration + rest) / tau))
 
 
 def in_loop(
@@ -264,6 +307,7 @@ def in_loop(
     battery: Battery | None = None,
     backend: str | None = None,
     stop_at_first: bool = True,
+    duty: float | None = None,
 ) -> tuple[str | None, pd.DataFrame, dict[str, pd.DataFrame]]:
     """The second pass: `candidates` run as the drive motors in the loop (MuJoCo's dcmotor), on the variants
     of the servo sweep `df`.
@@ -307,6 +351,9 @@ def in_loop(
     pick(cat, steer, "steer")
     table = {k: df[k].to_numpy(float) for k in spec.params}
     name_of = resolve_backend(backend or "mujoco")
+    duty = float(getattr(spec, "duty", 1.0) if duty is None else duty)
+    if not 0 < duty <= 1:
+        raise ConfigError(f"duty: {duty!r} is not allowed; allowed: 0 < duty <= 1")
     rows, detail, best = [], {}, None
     for name in candidates:
         motor = pick(cat, name, "candidates")
@@ -317,6 +364,7 @@ def in_loop(
         run_spec = dataclasses.replace(spec, vehicle=dataclasses.replace(spec.vehicle, motors=motors))
         cfg = run_spec.stats_config()
         duration = cfg.n_steps * float(spec.scenario.time_step)
+        rest = duration * (1.0 / duty - 1.0)
         engine = make_engine(name_of, spec.scenario, cfg, None, len(df))
         start = {"motors.drive_start_rise": np.zeros(len(df)), "motors.steer_start_rise": np.zeros(len(df))}
         taus = {"motors.drive_start_rise": c["t_T"], "motors.steer_start_rise": cs["t_T"]}
@@ -326,40 +374,60 @@ def in_loop(
         for k in range(runs):
             cols = engine.run(make_batch(run_spec.vehicle, spec.scenario, {**table, **start}))
             res = pd.DataFrame({key: np.asarray(v) for key, v in named(cols).items()})
+            # the next run starts from this one's end, cooled over the rest between runs
             end = {
-                key: res[[f"{m}_winding_temp_end" for m in groups[key]]].max(axis=1).to_numpy() - ambient[key]
+                key: (res[[f"{m}_winding_temp_end" for m in groups[key]]].max(axis=1).to_numpy() - ambient[key])
+                * (np.exp(-rest / taus[key]) if taus[key] > 0 else 0.0)
                 for key in start
             }
             residual = max(float(np.max(np.abs(end[key] - start[key]))) for key in start)
             if k < runs - 1:  # the next start: one Newton step towards end(s) = s
                 start = {
-                    key: np.maximum(start[key] + _hot_start(end[key] - start[key], duration, taus[key]), 0.0)
+                    key: np.maximum(start[key] + _hot_start(end[key] - start[key], duration, taus[key], rest), 0.0)
                     for key in start
                 }
         # a variant whose run failed a physics check (or diverged) says nothing of the motor: apart, never a reason
         diverged = res["status_code"].to_numpy() == 1
         lost = (res["motor_status"] == "unstable").to_numpy() | diverged
         why_lost = pd.Series(np.where(diverged, "diverged", res["motor_check"].to_numpy()))[lost].value_counts()
-        why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE)
+        servo_speed = df["wheel_speed"].to_numpy(float) if "wheel_speed" in df else None
+        why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE, duty, servo_speed)
         why.loc[lost, :] = False
+        steer_why = steer_reasons(res, cat[steer], cs, duty)
+        steer_why.loc[lost, :] = False
+        steer_bad = steer_why.any(axis=1).to_numpy()
+        judged = ~lost & ~steer_bad  # the drive is judged where the run was simulated and its steering held
         fits = ~why.any(axis=1)
         simulated = max(int((~lost).sum()), 1)
+        counted = max(int(judged.sum()), 1)
         rows.append(
             {
                 "motor": name,
                 "gear_ratio": c["N"],
                 "continuous_torque_at_wheel": c["eta"] * c["N"] * c["K"] * c["i_max"] if c["i_max"] else np.nan,
-                "coverage": float(fits[~lost].sum() / simulated),
+                "coverage": float(fits[judged].sum() / counted),
                 "not_simulated": int(lost.sum()),
                 "not_simulated_why": ", ".join(f"{v} {k}" for k, v in why_lost.items()),
-                **{f"fails_{r}": int(why[r].sum()) for r in IN_LOOP_REASONS},
+                **{f"fails_{r}": int(why[r].to_numpy()[judged].sum()) for r in IN_LOOP_REASONS},
+                "steer": steer,
+                "steer_misses": int(steer_bad.sum()),
+                "steer_coverage": float(1.0 - steer_bad.sum() / simulated),
+                **{f"steer_fails_{r}": int(steer_why[r].sum()) for r in STEER_REASONS},
                 "start_rise_median": float(np.median(start["motors.drive_start_rise"])),
                 "residual_K": residual,
                 "runs": runs,
             }
         )
-        detail[name] = pd.concat([df.reset_index(drop=True)[list(spec.params)], res, why.add_prefix("fails_")], axis=1)
-        if fits[~lost].sum() / simulated >= share and best is None:
+        detail[name] = pd.concat(
+            [
+                df.reset_index(drop=True)[list(spec.params)],
+                res,
+                why.add_prefix("fails_"),
+                steer_why.add_prefix("steer_fails_"),
+            ],
+            axis=1,
+        )
+        if fits[judged].sum() / counted >= share and best is None:
             best = name
             if stop_at_first:
                 break
@@ -373,6 +441,9 @@ def in_loop_lines(table: pd.DataFrame) -> list[str]:
     for _, row in table.iterrows():
         fails = ", ".join(f"{r} {int(row[f'fails_{r}'])}" for r in IN_LOOP_REASONS if row[f"fails_{r}"])
         line = f"{row['motor']}: covers {row['coverage']:.1%}" + (f"; fails: {fails}" if fails else "")
+        if row.get("steer_misses", 0):
+            why = ", ".join(f"{r} {int(row[f'steer_fails_{r}'])}" for r in STEER_REASONS if row[f"steer_fails_{r}"])
+            line += f"; the steering ({row['steer']}) missed {int(row['steer_misses'])}, not counted: {why}"
         if row.get("not_simulated", 0):
             k = int(row["not_simulated"])
             line += f"; {k} variant{'s' * (k > 1)} could not be simulated: {row['not_simulated_why']}"
@@ -380,30 +451,62 @@ def in_loop_lines(table: pd.DataFrame) -> list[str]:
     return lines
 
 
-def _in_loop_reasons(res: pd.DataFrame, motor: Any, c: dict, battery: Battery | None, limited: float) -> pd.DataFrame:
-    """Per variant of an in-the-loop result, each IN_LOOP_REASONS (True = fails)."""
+def _in_loop_reasons(
+    res: pd.DataFrame,
+    motor: Any,
+    c: dict,
+    battery: Battery | None,
+    limited: float,
+    duty: float = 1.0,
+    speed: Any = None,
+) -> pd.DataFrame:
+    """Per variant of an in-the-loop result, each REASONS entry for its drives (True = fails); `speed`: the
+    servo's mean wheel speed per variant (rad/s; default: the loop's own)."""
     short = res["motor_status"].isin(["short", "stalled"]).to_numpy()
     v_share = res[[f"{m}_at_voltage_share" for m in WHEELS]].max(axis=1).to_numpy()
     i_share = res[[f"{m}_at_current_share" for m in WHEELS]].max(axis=1).to_numpy()
     at_v, at_i = v_share > limited, i_share > limited
     out = pd.DataFrame(index=res.index)
+    i_rms = np.sqrt(duty) * res[[f"{m}_current_rms" for m in WHEELS]].max(axis=1).to_numpy()
+    out["rms"] = i_rms > c["i_max"] if c["i_max"] > 0 else False
+    out["thermal"] = res[[f"{m}_winding_temp_peak" for m in WHEELS]].max(axis=1).to_numpy() > c["T_max"]
     out["voltage"] = short & at_v & (v_share > i_share)  # the limit it spent longer at
     out["peak"] = short & at_i & (i_share >= v_share)
-    out["speed"] = short & ~at_v & ~at_i
-    out["thermal"] = res[[f"{m}_winding_temp_peak" for m in WHEELS]].max(axis=1).to_numpy() > c["T_max"]
+    wanted = np.abs(np.asarray(res["wheel_speed"] if speed is None else speed, float))
+    out["speed"] = wanted * c["N"] > c["V"] / c["K"]
+    out["gear_torque"] = _gear_torque(res, WHEELS, motor)
+    speed = res["wheel_speed"].abs().to_numpy() * c["N"]
+    out["gear_speed"] = speed > motor.gear_max_input_speed if motor.gear_max_input_speed is not None else False
     energy = np.zeros(len(res), bool)
     if battery is not None:
         energy |= res["bus_energy_wh"].to_numpy() > battery.energy_wh
         energy |= res["bus_power_peak"].to_numpy() > battery.max_power
     out["energy"] = energy
+    out["tracking"] = short & ~at_v & ~at_i
+    return out[list(REASONS)]
+
+
+def _gear_torque(res: pd.DataFrame, names: tuple[str, ...], motor: Any) -> np.ndarray:
+    """Per variant, whether a motor of `names` exceeds its gearhead's continuous (RMS) or intermittent (low-pass
+    peak) torque rating."""
     gear = np.zeros(len(res), bool)
     if motor.gear_max_continuous_torque is not None:
-        gear |= res[[f"{m}_rms" for m in WHEELS]].abs().max(axis=1).to_numpy() > motor.gear_max_continuous_torque
+        gear |= res[[f"{m}_rms" for m in names]].abs().max(axis=1).to_numpy() > motor.gear_max_continuous_torque
     if motor.gear_max_intermittent_torque is not None:
-        peak = res[[f"{m}_peak_lp_all" for m in WHEELS]].abs().max(axis=1).to_numpy()
+        peak = res[[f"{m}_peak_lp_all" for m in names]].abs().max(axis=1).to_numpy()
         gear |= peak > motor.gear_max_intermittent_torque
-    out["gear_torque"] = gear
-    speed = res["wheel_speed"].abs().to_numpy() * c["N"]
-    out["gear_speed"] = speed > motor.gear_max_input_speed if motor.gear_max_input_speed is not None else False
-    out["steering"] = res["steer_track_err_deg"].to_numpy() > STEER_LOST_DEG
-    return out
+    return gear
+
+
+def steer_reasons(res: pd.DataFrame, motor: Any, c: dict, duty: float = 1.0) -> pd.DataFrame:
+    """Per variant of an in-the-loop result, each STEER_REASONS entry for its steering motors (True = fails)."""
+    names = GROUPS["steer"]
+    out = pd.DataFrame(index=res.index)
+    i_rms = np.sqrt(duty) * res[[f"{m}_current_rms" for m in names]].max(axis=1).to_numpy()
+    out["rms"] = i_rms > c["i_max"] if c["i_max"] > 0 else False
+    out["thermal"] = res[[f"{m}_winding_temp_peak" for m in names]].max(axis=1).to_numpy() > c["T_max"]
+    out["voltage"] = res[[f"{m}_at_voltage_share" for m in names]].max(axis=1).to_numpy() > STEER_LIMIT_SHARE
+    out["peak"] = res[[f"{m}_at_current_share" for m in names]].max(axis=1).to_numpy() > STEER_LIMIT_SHARE
+    out["gear_torque"] = _gear_torque(res, names, motor)
+    out["lost"] = res["steer_track_err_deg"].to_numpy() > STEER_LOST_DEG
+    return out[list(STEER_REASONS)]

@@ -24,7 +24,16 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from batchveh.analysis.motors import IN_LOOP_REASONS, IN_LOOP_TEXT, REASON_TEXT, REASONS, WHEELS
+from batchveh.analysis.motors import (
+    DIFFER,
+    IN_LOOP_REASONS,
+    IN_LOOP_TEXT,
+    REASON_TEXT,
+    REASONS,
+    STEER_REASONS,
+    STEER_TEXT,
+    WHEELS,
+)
 
 FIGURES = "figures"
 
@@ -49,15 +58,29 @@ class Sizing:
     worst: dict[str, Any] = field(default_factory=dict)  # the worst variant's parameter values
     versions: dict[str, str] = field(default_factory=dict)
     wall_s: dict[str, float] = field(default_factory=dict)
+    steer_screen: pd.DataFrame | None = None  # the steering's screen table, one row per catalogue motor
+    steer_loop: pd.DataFrame | None = None  # every in_loop row run, each with its steering's verdict and `drive`
+    not_run: dict[str, str] = field(default_factory=dict)  # drive motor -> why it did not run in the loop
+    duty: float = 1.0  # the spec's duty: the share of the time the run repeats
+
+
+def focus(s: Sizing) -> str | None:
+    """The motor the figures show: the chosen one, else the best of those run in the loop (its coverage)."""
+    if s.chosen is not None:
+        return s.chosen
+    if not len(s.loop):
+        return None
+    return str(s.loop.sort_values("coverage", kind="stable")["motor"].iloc[-1])
 
 
 def smaller(s: Sizing) -> str | None:
-    """The catalogue motor next below the chosen one by continuous torque at the wheel, among those run in the
-    loop, else in the screen's table."""
+    """The catalogue motor next below the chosen one (or the focus, where none is chosen) by continuous torque
+    at the wheel, among those run in the loop, else in the screen's table."""
     ranked = list(s.screen["motor"])
-    if s.chosen is None or s.chosen not in ranked:
+    top = focus(s)
+    if top is None or top not in ranked:
         return None
-    below = ranked[: ranked.index(s.chosen)]
+    below = ranked[: ranked.index(top)]
     in_loop = [m for m in below if m in s.detail]
     return (in_loop or below or [None])[-1]
 
@@ -81,22 +104,89 @@ def verdict_table(s: Sizing) -> pd.DataFrame:
             q = loop.loc[name]
             row["in the loop"] = f"{q['coverage']:.1%}"
             row["loop misses"] = _counts(q, IN_LOOP_REASONS)
+            row["steering misses (not counted)"] = str(int(q.get("steer_misses", 0)))
             row["not simulated"] = q["not_simulated_why"] if q["not_simulated"] else "0"
+            if name == s.chosen:
+                row["verdict"] = "chosen"
+            else:
+                row["verdict"] = f"fails: covers {q['coverage']:.1%} < {s.share:.0%}; {_counts(q, IN_LOOP_REASONS)}"
         else:
-            row["in the loop"], row["loop misses"], row["not simulated"] = "not run", "", ""
-        row["verdict"] = "chosen" if name == s.chosen else ""
+            row["in the loop"], row["loop misses"], row["steering misses (not counted)"] = "not run", "", ""
+            row["not simulated"] = ""
+            row["verdict"] = f"not run: {s.not_run.get(name, 'not reached')}"
         rows.append(row)
     return pd.DataFrame(rows)
 
 
-def _counts(row: Any, reasons: tuple[str, ...]) -> str:
-    parts = [f"{k.replace('_', ' ')} {int(row[f'fails_{k}'])}" for k in reasons if row[f"fails_{k}"]]
+def steer_table(s: Sizing) -> pd.DataFrame:
+    """One row per catalogue motor as the steering: the screen of the steering's demand (its RMS and low-pass
+    peak, with the segment-free straight-line window), and where it ran in the loop, with which drive, its
+    coverage on its own criteria and its reasons; the verdict."""
+    if s.steer_screen is None:
+        return pd.DataFrame()
+    runs = s.steer_loop if s.steer_loop is not None else pd.DataFrame()
+    rows = []
+    for _, r in s.steer_screen.iterrows():
+        name = r["motor"]
+        row = {
+            "motor": name,
+            "ratio": f"{r['gear_ratio']:g}:1",
+            "continuous at the hinge (N m)": round(float(r["continuous_torque_at_wheel"]), 3),
+            "screen": f"{r['coverage']:.1%}",
+            "screen misses": _counts(r, REASONS),
+        }
+        mine = runs[runs["steer"] == name] if len(runs) else runs
+        if len(mine):
+            last = mine.iloc[-1]
+            row["in the loop (with drive)"] = "; ".join(
+                f"{q['steer_coverage']:.1%} ({q['drive']})" for _, q in mine.iterrows()
+            )
+            row["loop misses"] = _counts(last, STEER_REASONS, prefix="steer_fails_")
+            held = last["steer_coverage"] >= s.share
+            row["verdict"] = (
+                "chosen"
+                if name == s.steer and held
+                else "kept (given), fails: " + row["loop misses"]
+                if name == s.steer
+                else f"fails: covers {last['steer_coverage']:.1%} < {s.share:.0%}; {row['loop misses']}"
+            )
+        else:
+            row["in the loop (with drive)"], row["loop misses"] = "not run", ""
+            ranked = list(s.steer_screen["motor"])
+            if name == s.steer:
+                row["verdict"] = "chosen"
+            elif ranked.index(name) < ranked.index(s.steer):
+                row["verdict"] = f"not run: the screen's {r['coverage']:.1%} is below {s.share:.0%}"
+            else:
+                row["verdict"] = f"not run: a smaller steering motor ({s.steer}) holds"
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def reason_table(s: Sizing) -> pd.DataFrame:
+    """Screen against loop, reason by reason, for each drive motor run in the loop: each pass's count (the screen
+    over every variant, the loop over those simulated with their steering held) and why the two read it apart."""
+    screen = s.screen.set_index("motor")
+    rows = []
+    for _, q in s.loop.iterrows():
+        for r in REASONS:
+            a, b = int(screen.loc[q["motor"], f"fails_{r}"]), int(q[f"fails_{r}"])
+            if a or b:
+                rows.append({"motor": q["motor"], "reason": r.replace("_", " "), "screen": a, "loop": b,
+                             "where the passes differ": DIFFER[r] if a != b else "they agree"})  # fmt: skip
+    return pd.DataFrame(rows, columns=["motor", "reason", "screen", "loop", "where the passes differ"])
+
+
+def _counts(row: Any, reasons: tuple[str, ...], prefix: str = "fails_") -> str:
+    parts = [f"{k.replace('_', ' ')} {int(row[f'{prefix}{k}'])}" for k in reasons if row[f"{prefix}{k}"]]
     return ", ".join(parts) or "none"
 
 
 def verdicts(s: Sizing) -> pd.DataFrame:
     """Per variant and candidate run in the loop (long form): the swept values, `motor`, `fits`, the reasons it
-    fails (`;`-separated, IN_LOOP_REASONS), `motor_status`, `motor_check` and whether it could be simulated."""
+    fails (`;`-separated, IN_LOOP_REASONS), `motor_status`, `motor_check`, whether it could be simulated, whether
+    its steering held (`steer_held`) and why not (`steer_reasons`, STEER_REASONS). `fits` needs the steering held:
+    a variant the steering missed is not judged for the drive."""
     frames = []
     for name, d in s.detail.items():
         why = d[[f"fails_{r}" for r in IN_LOOP_REASONS]].to_numpy(bool)
@@ -104,9 +194,12 @@ def verdicts(s: Sizing) -> pd.DataFrame:
         f = d[list(s.params)].copy()
         f.insert(0, "variant", np.arange(len(d)))
         f["motor"] = name
+        steer_why = d[[f"steer_fails_{r}" for r in STEER_REASONS]].to_numpy(bool)
         f["simulated"] = ~lost
-        f["fits"] = ~lost & ~why.any(axis=1)
+        f["steer_held"] = ~lost & ~steer_why.any(axis=1)
+        f["fits"] = f["steer_held"].to_numpy() & ~why.any(axis=1)
         f["reasons"] = [";".join(r for r, bad in zip(IN_LOOP_REASONS, w, strict=True) if bad) for w in why]
+        f["steer_reasons"] = [";".join(r for r, bad in zip(STEER_REASONS, w, strict=True) if bad) for w in steer_why]
         f["motor_status"] = d["motor_status"].to_numpy()
         f["motor_check"] = d["motor_check"].to_numpy()
         frames.append(f)
@@ -155,12 +248,15 @@ def misses(ax, s: Sizing, name: str) -> None:
     yv = d[y].to_numpy(float) if y else np.zeros(len(d))
     lost = (d["motor_status"] == "unstable").to_numpy() | (d["status_code"].to_numpy() == 1)
     why = d[[f"fails_{r}" for r in IN_LOOP_REASONS]].to_numpy(bool)
-    ok = ~lost & ~why.any(axis=1)
+    ok = ~lost & ~why.any(axis=1) & ~d[[f"steer_fails_{r}" for r in STEER_REASONS]].to_numpy(bool).any(axis=1)
     ax.scatter(d[x][ok], yv[ok], s=8, color="0.75", label=f"covered ({ok.sum()})")
     for j, reason in enumerate(IN_LOOP_REASONS):
         hit = why[:, j] & ~lost
         if hit.any():
             ax.scatter(d[x][hit], yv[hit], s=14, label=f"{reason.replace('_', ' ')} ({hit.sum()})")
+    steer = d[[f"steer_fails_{r}" for r in STEER_REASONS]].to_numpy(bool).any(axis=1) & ~lost
+    if steer.any():
+        ax.scatter(d[x][steer], yv[steer], s=24, marker="+", color="m", label=f"steering missed ({steer.sum()})")
     if lost.any():
         ax.scatter(d[x][lost], yv[lost], s=20, marker="x", color="k", label=f"not simulated ({lost.sum()})")
     ax.set_xlabel(x)
@@ -175,7 +271,7 @@ def worst_trace(axes, s: Sizing) -> None:
     ax, bx = axes
     for m in WHEELS:
         ax.plot(t["time"], t[f"{m}_winding_temp"], lw=1, label=m)
-    c = s.catalogue[s.chosen].resolved() if s.chosen else None
+    c = s.catalogue[focus(s)].resolved() if focus(s) else None
     if c is not None and np.isfinite(c["T_max"]):
         ax.axhline(c["T_max"], color="r", lw=1, ls="--", label=f"maximum {c['T_max']:g} C")
     ax.set_xlabel("time (s)")
@@ -207,7 +303,7 @@ def figures(folder: Path, s: Sizing) -> dict[str, str]:
 
     out = {}
     (folder / FIGURES).mkdir(parents=True, exist_ok=True)
-    shown = [m for m in (smaller(s), s.chosen) if m is not None]
+    shown = [m for m in dict.fromkeys((smaller(s), focus(s))) if m is not None]
     if shown:
         fig, axes = plt.subplots(1, len(shown), figsize=(5.5 * len(shown), 4.2), squeeze=False)
         for ax, name in zip(axes[0], shown, strict=True):
@@ -248,7 +344,7 @@ def _md_table(df: pd.DataFrame) -> str:
 
 def catalogue_table(s: Sizing) -> pd.DataFrame:
     """The catalogue entries the report used (the chosen, the next smaller, the steering motor): their numbers."""
-    names = [m for m in dict.fromkeys([s.chosen, smaller(s), s.steer]) if m]
+    names = [m for m in dict.fromkeys([focus(s), smaller(s), s.steer]) if m]
     rows = []
     for name in names:
         c = s.catalogue[name].resolved()
@@ -262,7 +358,14 @@ def headline(s: Sizing) -> str:
     """The verdict in one sentence."""
     n = len(s.servo)
     if s.chosen is None:
-        return f"No motor of the catalogue covers {s.share:.0%} of the {n} variants in the loop."
+        best = focus(s)
+        if best is None:
+            return f"No motor of the catalogue covers {s.share:.0%} of the {n} variants in the loop."
+        q = s.loop.set_index("motor").loc[best]
+        return (
+            f"No motor of the catalogue covers {s.share:.0%} of the {n} variants in the loop. The best, {best}, "
+            f"covers {q['coverage']:.1%}; it misses for: {_counts(q, IN_LOOP_REASONS)} (the figures show it)."
+        )
     row = s.loop.set_index("motor").loc[s.chosen]
     c = s.catalogue[s.chosen].resolved()
     return (
@@ -285,9 +388,19 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
             "checks every motor against the ideal servo's demand; the loop runs the candidates, smallest first, as "
             "DC motors driven by batchveh's drive, from the hot steady state of back-to-back runs.",
         ),
-        ("Verdict", "table", verdict_table(s)),
+        ("Verdict: the drive motors", "table", verdict_table(s)),
         ("", "text", f"Screen misses: {screen}. Loop misses: {reasons}. Not simulated: a run that failed its own "
-                     "physics checks or diverged; it says nothing of the motor and is never counted against it."),
+                     "physics checks or diverged; it says nothing of the motor and is never counted against it. "
+                     "Steering misses: the steering motor's, never the drive's: not counted for the drive."),
+        ("Verdict: the steering motor", "table", steer_table(s)),
+        ("", "text", "The steering's criteria in the loop: " + "; ".join(
+            f"{k}: {v}" for k, v in STEER_TEXT.items()) + f". It must hold on {s.share:.0%} of the variants "
+            "simulated, or the next larger steering motor runs with the same drive."),
+        ("Screen against loop, reason by reason", "table", reason_table(s)),
+        ("", "text", f"Both passes use one list of criteria at the spec's duty ({s.duty:g} of the time: "
+                     f"{'the run repeated back to back' if s.duty >= 1 else 'the run repeated with rests between'}"
+                     "). The screen counts over every variant; the loop over the variants simulated whose steering "
+                     "held."),
     ]  # fmt: skip
     for title, path in figs.items():
         out.append((title, "figure", path))
@@ -349,6 +462,9 @@ def write(folder: str | Path, s: Sizing) -> dict[str, Path]:
     verdicts(s).to_parquet(paths["verdicts"], index=False)
     summary = {"chosen": s.chosen, "steer": s.steer, "share": s.share, "variants": len(s.servo),
                "screen": s.screen.to_dict(orient="records"), "loop": s.loop.to_dict(orient="records"),
+               "steer_screen": None if s.steer_screen is None else s.steer_screen.to_dict(orient="records"),
+               "steer_loop": None if s.steer_loop is None else s.steer_loop.to_dict(orient="records"),
+               "not_run": s.not_run, "duty": s.duty,
                "worst": s.worst, "versions": s.versions, "wall_s": s.wall_s,
                "figures": figs}  # fmt: skip
     paths["summary"].write_text(json.dumps(summary, indent=1, default=str) + "\n")

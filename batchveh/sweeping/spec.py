@@ -92,6 +92,8 @@ class SpecFile:
     backend: Literal["auto", "mujoco", "mjx", "warp"] = "auto"
     precision: Literal["f32", "f64"] = "f32"
     solver: SolverOptions = SolverOptions()
+    # sizing (batchveh.size): the share of the time the motors run this run, repeated; 1 = back to back, for ever
+    duty: float = field(1.0, unit="1", gt=0, le=1)
 
     def validate(self, where: str) -> None:
         if not self.name:
@@ -121,6 +123,7 @@ class SweepSpec:
     solver: SolverOptions
     raw: dict[str, Any]  # the YAML as read, for the Parquet metadata
     where: str = "spec"  # the file it came from, for messages
+    duty: float = 1.0  # sizing: the share of the time this run repeats (SpecFile.duty)
 
     def table(self) -> VariantTable:
         """The variants, counted without being built."""
@@ -416,6 +419,7 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
         solver=top.solver,
         raw=raw,
         where=where,
+        duty=top.duty,
     )
 
 
