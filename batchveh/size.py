@@ -105,7 +105,7 @@ def not_run(table: Any, runs: list[str], ran: list[str], chosen: str | None, bes
         if chosen is not None and ranked.index(name) > ranked.index(chosen):
             out[name] = f"a smaller motor ({chosen}) covers in the loop"
         elif name not in runs and best is None:
-            out[name] = f"screen {cover[name]:.1%}, more than {NEAR:.0%} below the best screen coverage"
+            out[name] = f"screen {cover[name]:.1%}, more than {NEAR * 100:.0f} points below the best screen coverage"
         elif name not in runs:
             out[name] = f"screen {cover[name]:.1%}: below the loop's first, the one under the screen's {best}"
         else:

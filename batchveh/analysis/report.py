@@ -217,13 +217,16 @@ def torque_speed(ax, s: Sizing, name: str) -> None:
     w = np.linspace(0.0, w0, 100)
     d = s.detail.get(name)
     hot = float(d[[f"{m}_winding_temp_peak" for m in WHEELS]].to_numpy().max()) if d is not None else 25.0
-    for temp, style in ((25.0, "-"), (hot, "--")):
+    for temp, style in ((25.0, "-"), (hot, "--")) if d is not None else ((25.0, "-"),):
         rt = r * (1 + 0.0039 * (temp - 25.0))
         ax.plot(w, eta * n * k * (v - k * n * w) / rt, "k" + style, lw=1, label=f"voltage line, winding {temp:.0f} C")
     if c["i_max"]:
         cont = eta * n * k * c["i_max"]
         ax.fill_between(w, 0, np.minimum(cont, eta * n * k * (v - k * n * w) / r), color="tab:green", alpha=0.15,
                         label=f"continuous current: {cont:.2f} N m")  # fmt: skip
+    demand = s.servo  # the screen's demand: the servo's window RMS at its mean speed (grey, behind the loop's)
+    rms_servo = demand[[f"{m}_rms" for m in WHEELS]].abs().max(axis=1).to_numpy()
+    ax.scatter(demand["wheel_speed"].abs(), rms_servo, s=5, color="0.7", label="servo's RMS (the screen's demand)")
     if d is not None:
         speed = d["wheel_speed"].abs().to_numpy()
         rms = d[[f"{m}_rms" for m in WHEELS]].abs().max(axis=1).to_numpy()
@@ -232,12 +235,14 @@ def torque_speed(ax, s: Sizing, name: str) -> None:
         ax.scatter(speed, rms, s=6, color="tab:blue", label="RMS (steady window)")
     top = eta * n * k * v / r
     if c["i_max"]:  # the region that matters: up to a few times the continuous torque, or the highest point
-        top = min(top, max(3 * eta * n * k * c["i_max"], 1.3 * float(np.max(peak)) if d is not None else 0.0))
+        seen = float(np.max(peak)) if d is not None else float(np.max(rms_servo))
+        top = min(top, max(3 * eta * n * k * c["i_max"], 1.3 * seen))
     ax.set_xlim(0, w0 * 1.05)
     ax.set_ylim(0, top)
     ax.set_xlabel("wheel speed (rad/s)")
     ax.set_ylabel("drive torque at the wheel (N m)")
-    ax.set_title(f"{name}\n{n:g}:1, eta {eta:g}, {v:g} V", fontsize=9)
+    ran = "in the loop" if d is not None else "not run in the loop: the servo's demand only"
+    ax.set_title(f"{name}\n{n:g}:1, eta {eta:g}, {v:g} V; {ran}", fontsize=9)
     ax.legend(fontsize=7, loc="upper right")
 
 
