@@ -81,31 +81,38 @@ def test_demand_is_the_worst_of_the_four_drives_at_the_wheel():
 def test_screen_names_each_reason_from_closed_forms():
     """One variant per reason, each just past its limit, and one that fits every limit."""
     df = _frame(
-        # fits; rms: 3.3 N m = 4.125 A > 4 A; thermal: runaway-free but hot; voltage; speed; gear torque; the
-        # steady window's peak 3.3 N m = 4.125 A above the 4 A limit (its RMS 2 N m fits)
+        # fits; rms: 3.3 N m = 4.125 A > 4 A; thermal: runaway-free but hot; voltage; speed; a whole-run peak
+        # of 12.5 N m (a ramp's) that the 3.2 N m motor never gives; the steady window's peak 3.3 N m = 4.125 A
+        # above the 4 A limit (its RMS 2 N m fits)
         rms=[2.0, 3.3, 3.1, 1.0, 0.5, 1.0, 2.0],
         peak=[4.0, 3.3, 3.1, 11.0, 0.5, 12.5, 3.3],
-        speed=[10.0, 10.0, 10.0, 10.0, 19.5, 5.0, 10.0],
-        window=[2.0, 3.3, 3.1, 1.0, 0.5, 1.0, 3.3],
+        speed=[10.0, 10.0, 10.0, 20.0, 19.5, 5.0, 10.0],
+        window=[2.0, 3.3, 3.1, 3.0, 0.5, 1.0, 3.3],
     )
     res = screen_one(demand(df), DC)
-    # at the wheel, 0.8 N m per A: variant 0 draws 2.5 A RMS, 5 A peak at 200 rad/s of motor speed
+    # at the wheel, 0.8 N m per A: variant 0 draws 2.5 A RMS, 5 A at its whole-run peak, 200 rad/s at the motor;
+    # the voltage at its window's peak (2 N m = 2.5 A)
     assert res.current_rms[0] == pytest.approx(2.0 / 0.8) and res.current_peak[0] == pytest.approx(5.0)
-    assert res.voltage_peak[0] == pytest.approx(5.0 * 1.2 + 0.05 * 200.0)
+    assert res.voltage_peak[0] == pytest.approx(2.5 * 1.2 + 0.05 * 200.0)
     # steady rise: heat = 6 K/W x i^2 x 1.2 Ohm at 25 deg C (R's reference), alpha 0.0039 feeding back
     heat = 6.0 * (3.1 / 0.8) ** 2 * 1.2
     assert res.winding_temperature[2] == pytest.approx(25 + heat / (1 - 0.0039 * heat))
+    # the window's peak at most the bound, 3.2 N m = 4 A: row 1's 4.125 A reads 4 A x 1.2 + 10 V
+    assert res.voltage_peak[1] == pytest.approx(4.0 * 1.2 + 0.05 * 200.0)
     expect = {
         0: set(),
         1: {"rms", "thermal", "peak"},  # 4.125 A: over 4 A, and 25 + 235 deg C; its window peaks at 4.125 A
         2: {"thermal"},  # 3.875 A, under 4 A, but 25 + 187 deg C (108 K before R(T) feeds back)
-        3: {"voltage"},  # 13.75 A x 1.2 + 0.05 x 200 = 26.5 V > 24 V
+        3: {"voltage"},  # the window's 3 N m = 3.75 A: 3.75 x 1.2 + 0.05 x 400 = 24.5 V > 24 V
         4: set(),  # 19.5 rad/s at the wheel = 390 rad/s at the motor: under no-load 480 and the gear's 400
-        5: {"gear_torque"},  # 12.5 N m peak > 12 N m intermittent
-        6: {"peak"},  # the window's 3.3 N m = 4.125 A > 4 A; 2.5 A RMS; 4.125 A x 1.2 + 10 = 14.95 V < 24 V
+        5: set(),  # 12.5 N m whole-run peak > 12 N m intermittent, but the motor gives at most 3.2 N m
+        6: {"peak"},  # the window's 3.3 N m = 4.125 A > 4 A; 2.5 A RMS; 4 A x 1.2 + 10 = 14.8 V < 24 V
     }
     got = {i: {r for r in REASONS if res[r][i]} for i in range(len(df))}
     assert got == expect, got
+    # a motor that gives 16 N m (20 A): row 5's 12.5 N m peak passes the gearhead's 12 N m intermittent rating
+    strong = DCMotor(**{**vars(DC), "name": "dc-20A", "max_continuous_current": 20.0})
+    assert bool(screen_one(demand(df), strong).gear_torque[5])
     # past the no-load speed: 24.5 rad/s at the wheel = 490 rad/s > 480 (and past the gear's 400)
     fast = screen_one(pd.DataFrame({"rms": [0.1], "peak": [0.1], "speed": [24.5]}), DC)
     assert bool(fast.speed[0]) and bool(fast.gear_speed[0])
@@ -115,7 +122,7 @@ def test_screen_with_share_one_is_the_smallest_motor_that_covers_every_variant()
     """Three motors, given largest first, ranked by their continuous torque at the wheel eta N K i_max (5, 10,
     20 N m); at 1 N m per A the rows draw 4 and 8 A RMS, 10 and 16 A peak at 100 and 120 rad/s of motor speed."""
     df = _frame(rms=[4.0, 8.0], peak=[10.0, 16.0], speed=[10.0, 12.0])
-    small = _plain("S", 5.0, 1.0)  # row 1: 8 A > 5 A, and 16 A x 1 Ohm + 0.1 x 120 = 28 V > 24 V
+    small = _plain("S", 5.0, 1.0)  # row 1: 8 A > 5 A (RMS and the window's peak); 5 A x 1 Ohm + 12 V = 17 V
     mid = _plain("M", 10.0, 0.5)  # row 1: 16 x 0.5 + 12 = 20 V: fits both rows
     big = _plain("L", 20.0, 0.5)  # fits too, larger
     best, table, failing = screen(df, {"L": big, "S": small, "M": mid}, share=1.0)
@@ -124,7 +131,7 @@ def test_screen_with_share_one_is_the_smallest_motor_that_covers_every_variant()
     np.testing.assert_allclose(table.continuous_torque_at_wheel, [5.0, 10.0, 20.0])
     np.testing.assert_allclose(table.coverage, [0.5, 1.0, 1.0])
     s = table.set_index("motor").loc["S"]
-    assert (s.fails_rms, s.fails_voltage, s.fails_speed, s.fails_thermal, s.fails_gear_torque) == (1, 1, 0, 0, 0)
+    assert (s.fails_rms, s.fails_peak, s.fails_voltage, s.fails_speed, s.fails_thermal) == (1, 1, 0, 0, 0)
     assert list(failing["S"].slope_deg) == [1.0] and failing["M"].empty and failing["L"].empty
     assert set(REASONS) <= set(failing["S"].columns)
     assert screen(df, {"S": small}, share=1.0)[0] is None  # none covers every variant
@@ -184,10 +191,12 @@ def test_the_rotor_inertia_is_reflected_only_with_accel():
     np.testing.assert_allclose(screen_one(need, DC, armature=1e-3, accel=500.0).current_peak, [6.875, 6.875])
     np.testing.assert_allclose(screen_one(need, DC, armature=0.01, accel=500.0).current_peak, [5.0, 5.0])
     np.testing.assert_allclose(screen_one(need, DC, accel=np.array([0.0, 500.0])).current_peak, [5.0, 7.5])
-    # through screen: 11 N m + 4e-3 x 500 = 13 N m passes the gearhead's 12 N m intermittent rating
+    # through screen, on a motor that gives 16 N m (20 A): 11 N m + 4e-3 x 500 = 13 N m passes the gearhead's
+    # 12 N m intermittent rating
+    strong = DCMotor(**{**vars(DC), "name": "dc-20A", "max_continuous_current": 20.0})
     df = _frame(rms=[1.0], peak=[11.0], speed=[0.0])
-    assert screen(df, {"dc-test": DC}, share=1.0)[0] == "dc-test"
-    best, table, _ = screen(df, {"dc-test": DC}, share=1.0, accel=500.0)
+    assert screen(df, {"dc-20A": strong}, share=1.0)[0] == "dc-20A"
+    best, table, _ = screen(df, {"dc-20A": strong}, share=1.0, accel=500.0)
     assert best is None and table.fails_gear_torque[0] == 1 and table.fails_voltage[0] == 0
 
 
@@ -274,3 +283,41 @@ def test_a_span_that_is_not_there_is_one_line():
     with pytest.raises(ConfigError, match=r"span: 'mission' has no column mission_drive_lf_rms") as err:
         demand(df, span="mission")
     assert "\n" not in str(err.value)
+
+
+def test_the_four_drives_share_what_one_clipped_wheel_cannot_give():
+    """0.8 N m per A, 3.2 N m bound. Row 0: the worst wheel 3.6 N m RMS and window peak, the others 2.0: mean 2.4
+    fits, so the worst is taken at 3.2 N m (4 A, not over 4 A): no rms, no peak (the loop held such climbs with
+    that wheel at its bound). Row 1: worst 3.6, others 3.4: mean 3.45 > 3.2: judged alone, 4.5 A > 4 A."""
+    worst, rest = [3.6, 3.6], [2.0, 3.4]
+    cols = {"wheel_speed": [5.0, 5.0]}
+    for i, w in enumerate(WHEELS):
+        v = worst if i == 2 else rest
+        cols[f"{w}_rms"], cols[f"{w}_peak_lp"], cols[f"{w}_peak_lp_all"] = v, v, v
+    df = pd.DataFrame({k: np.asarray(v, float) for k, v in cols.items()})
+    res = screen_one(demand(df), DC)
+    assert res.current_rms[0] == pytest.approx(4.0) and res.current_rms[1] == pytest.approx(4.5)
+    assert {r for r in REASONS if res[r][0]} == {"thermal"}  # 4 A: 25 + 6 x 16 x 1.2 / (1 - 0.0039 x 115.2)
+    assert {"rms", "peak"} <= {r for r in REASONS if res[r][1]}
+    # the steering's four motors hold each its own wheel: no sharing
+    steer = df.rename(columns=lambda c: c.replace("drive_", "steer_"))
+    assert demand(steer, "steer").peak_window[0] == pytest.approx(3.6) and "rms_mean" not in demand(steer, "steer")
+
+
+def test_rms_alone_and_the_duty():
+    """A motor with no thermal model (the screen's rms the only current check): 3.3 N m RMS = 4.125 A > 4 A, its
+    window's low-pass peak 3.1 N m (3.875 A: a fast ripple's peak filtered below its RMS) fails on RMS alone. At
+    duty 0.5 (the run half the time): sqrt(0.5) x 4.125 = 2.92 A, and the heat halves (the DC motor: 25 + 235 deg C
+    back to back, 25 + 6 x 0.5 x 17.0 x 1.2 / (1 - 0.0039 x 61.3) = 105.5 deg C at half duty)."""
+    cold = DCMotor(**{**{k: v for k, v in vars(DC).items() if not k.startswith("thermal")}, "name": "dc-cold"})
+    cold = DCMotor(**{**vars(cold), "max_winding_temperature": None})
+    df = _frame(rms=[3.3], peak=[3.3], speed=[5.0], window=[3.1])
+    best, table, _ = screen(df, {"dc-cold": cold}, share=1.0)
+    row = table.iloc[0]
+    assert best is None and row.fails_rms == 1 and sum(row[f"fails_{r}"] for r in REASONS) == 1
+    half = screen_one(demand(df), DC, duty=0.5)
+    assert half.current_rms[0] == pytest.approx(np.sqrt(0.5) * 3.3 / 0.8)
+    heat = 6.0 * 0.5 * (3.3 / 0.8) ** 2 * 1.2
+    assert half.winding_temperature[0] == pytest.approx(25 + heat / (1 - 0.0039 * heat))
+    assert not half.rms[0] and not half.thermal[0]
+    assert screen_one(demand(df), DC).thermal[0]  # back to back: 25 + 235 deg C

@@ -59,8 +59,10 @@ REASONS = ("rms", "thermal", "voltage", "peak", "speed", "gear_torque", "gear_sp
 REASON_TEXT = {
     "rms": "RMS current, at the spec's duty, above the continuous current",
     "thermal": "steady winding temperature, at the spec's duty, above its maximum (one-node model with R(T))",
-    "voltage": "the peak torque at speed needs more than the bus voltage (the voltage line)",
-    "peak": "the steady window's low-pass peak torque needs more than the current limit allows (eta N K i_max)",
+    "voltage": "the steady window's peak torque (at most the current's bound) at speed needs more than the bus "
+    "voltage (the voltage line)",
+    "peak": "the low-pass peak torque needs more than the current limit allows (eta N K i_max): a drive's over the "
+    "steady window, a steering motor's over the whole run",
     "speed": "the wheel speed needs more than the no-load speed at the bus voltage",
     "gear_torque": "wheel torque above the gearhead's continuous or intermittent rating",
     "gear_speed": "motor speed above the gearhead's input speed",
@@ -86,8 +88,16 @@ def demand(df: pd.DataFrame, group: str = "drive", span: str | None = None) -> p
     if span is None:
         out["rms"] = df[[f"{m}_rms" for m in names]].abs().max(axis=1)
         out["peak"] = df[[f"{m}_peak_lp_all" for m in names]].abs().max(axis=1)
-        window = [f"{m}_peak_lp" for m in names]  # a frame without them (made by hand): the whole run's
-        out["peak_window"] = df[window].abs().max(axis=1) if window[0] in df else out["peak"]
+        # the current's bound against a drive's steady-window peak (a ramp's peak it rides through, falling behind
+        # for a moment), but against the steering's whole-run peak: a steering motor at its bound loses its angle
+        # (the 250 kg AGV's 4.24 N m steering against the drive's force at the scrub radius, 8.6 N m on its ramp,
+        # turned its wheels 80-315 deg). A frame without the window's columns (made by hand): the whole run's.
+        window = [f"{m}_peak_lp" for m in names]
+        steady = group == "drive" and window[0] in df
+        out["peak_window"] = df[window].abs().max(axis=1) if steady else out["peak"]
+        if steady:  # what the four drives can share (screen_one)
+            out["rms_mean"] = df[[f"{m}_rms" for m in names]].abs().mean(axis=1)
+            out["peak_window_mean"] = df[window].abs().mean(axis=1)
         out["speed"] = df["wheel_speed"].abs() if group == "drive" else 0.0
     else:
         out["rms"] = df[[f"{span}_{m}_rms" for m in names]].abs().max(axis=1)
@@ -106,21 +116,38 @@ def screen_one(
     The demand was simulated with an ideal servo whose reflected inertia was `armature` (kg m^2 at
     the wheel: the vehicle's motors.armature); the candidate's rotor reflects J N^2, so its peak
     torque is the demand's plus (J N^2 - armature) x `accel` (rad/s^2 at the wheel, each variant's
-    own, e.g. its speed over its ramp time). At the motor: i = T / (eta N K); the voltage at the peak
-    v = i_peak R + K N w (the peak taken at the variant's speed: conservative); the peak current against the
-    current limit i_max (the drive clips there); the run repeated for `duty` of the time (the spec's `duty`, 1:
-    back to back): the RMS current over time sqrt(duty) i_rms, and the winding's steady rise dT = R_T duty
-    i_rms^2 R0 (1 + alpha (T_a + dT - 25)), solved in closed form (runaway where R_T duty i^2 R0 alpha >= 1)."""
+    own, e.g. its speed over its ramp time). At the motor: i = T / (eta N K), reported as current_rms and
+    current_peak (the whole run's, the rotor's share with it). The drive clips the current at i_max, so the
+    motor gives at most the bound eta N K i_max at the wheel, and the checks read what the loop reads:
+    - peak: the steady window's low-pass peak (`peak_window`; a steering motor's: the whole run's) above the
+      bound: short of torque where the speed must be held (a ramp's peak only puts the ramp behind);
+    - voltage: the window's peak, at most the bound, at the variant's mean speed: v = i R + K N w above the bus;
+    - rms and thermal: the run repeated for `duty` of the time (the spec's `duty`, 1: back to back): the RMS
+      current over time sqrt(duty) i_rms against i_max, and the winding's steady rise dT = R_T duty i_rms^2 R0
+      (1 + alpha (T_a + dT - 25)), solved in closed form (runaway where R_T duty i^2 R0 alpha >= 1);
+    - gear_torque: the RMS and the whole run's peak, each at most the bound, against the gearhead's ratings.
+
+    The four drives share (`need` with `rms_mean` and `peak_window_mean`, the four wheels' means): where the
+    mean fits within the bound, the worst wheel's RMS and window peak are taken at most at the bound: the drive
+    clips it there and the other wheels' speed loops take the rest, as the loop measured on the seed's climbs
+    (the worst wheel at its bound, the four-wheel sum the servo's, the speed held). Where the mean does not fit,
+    the worst wheel is judged on its own."""
     from batchveh.model.motors import COPPER_TEMPCOEF, REFERENCE_TEMP
 
     c = motor.resolved()
     n, eta, k, r = c["N"], c["eta"], c["K"], c["R"]
+    bound = eta * n * k * c["i_max"] if c["i_max"] > 0 else np.inf  # the most the drive gives at the wheel
     peak = need["peak"] + np.maximum(c["J"] * n * n - armature, 0.0) * np.abs(accel)
-    i_rms, i_peak = np.sqrt(duty) * need["rms"] / (eta * n * k), peak / (eta * n * k)
+    window = need["peak_window"] if "peak_window" in need else need["peak"]
+    rms = need["rms"]
+    if "rms_mean" in need:  # drives: the four share what one clipped wheel cannot give
+        shared = (need["rms_mean"] <= bound) & (need["peak_window_mean"] <= bound)
+        rms, window = rms.where(~shared, np.minimum(rms, bound)), window.where(~shared, np.minimum(window, bound))
+    i_rms, i_peak = np.sqrt(duty) * rms / (eta * n * k), peak / (eta * n * k)
     w_motor = need["speed"] * n
     out = pd.DataFrame(index=need.index)
     out["current_rms"], out["current_peak"], out["motor_speed"] = i_rms, i_peak, w_motor
-    out["voltage_peak"] = i_peak * r + k * w_motor
+    out["voltage_peak"] = np.minimum(window, bound) / (eta * n * k) * r + k * w_motor
     heat = c["R_T"] * i_rms**2 * r
     denominator = 1 - heat * COPPER_TEMPCOEF
     rise = np.where(denominator > 0, heat * (1 + COPPER_TEMPCOEF * (c["T_amb"] - REFERENCE_TEMP)) / denominator, np.inf)
@@ -128,14 +155,13 @@ def screen_one(
     out["rms"] = i_rms > c["i_max"] if c["i_max"] > 0 else False
     out["thermal"] = out["winding_temperature"] > c["T_max"] if c["R_T"] > 0 else False
     out["voltage"] = out["voltage_peak"] > c["V"]
-    window = need["peak_window"] if "peak_window" in need else need["peak"]
-    out["peak"] = window / (eta * n * k) > c["i_max"] if c["i_max"] > 0 else False
+    out["peak"] = window > bound
     out["speed"] = w_motor > c["V"] / k
     gear_torque = np.zeros(len(need), bool)
-    if motor.gear_max_continuous_torque is not None:
-        gear_torque |= need["rms"].to_numpy() > motor.gear_max_continuous_torque
+    if motor.gear_max_continuous_torque is not None:  # the torque the motor gives: at most its bound
+        gear_torque |= np.minimum(rms, bound).to_numpy() > motor.gear_max_continuous_torque
     if motor.gear_max_intermittent_torque is not None:
-        gear_torque |= peak.to_numpy() > motor.gear_max_intermittent_torque
+        gear_torque |= np.minimum(peak, bound).to_numpy() > motor.gear_max_intermittent_torque
     out["gear_torque"] = gear_torque
     out["gear_speed"] = w_motor > motor.gear_max_input_speed if motor.gear_max_input_speed is not None else False
     out["energy"] = False
@@ -227,10 +253,12 @@ IN_LOOP_TEXT = {
 }
 # where the two passes read a reason differently (the report prints it beside each reason's two counts)
 DIFFER = {
-    "rms": "screen: the servo's torque over eta N K; loop: the current the motor carried, which the drive clips "
-    "at i_max, so a motor short of RMS current falls short at its current limit there (counted as peak)",
+    "rms": "screen: the servo's torque over eta N K, the four wheels sharing up to the bound; loop: the current "
+    "the motor carried, which the drive clips at i_max, so a motor short of it falls short at its current limit "
+    "there (counted as peak)",
     "thermal": "screen: the steady window's RMS held for ever; loop: the whole run (its ramp too), repeated",
-    "voltage": "screen: the peak torque at the mean speed (conservative); loop: short of speed at the line",
+    "voltage": "screen: the window's peak torque (at most the bound) at the mean speed; loop: short of speed at "
+    "the line",
     "peak": "screen: the window's low-pass peak above the current's bound; loop: short of speed at that bound "
     "(a peak the loop rides through is no miss; a ramp that falls behind into the window is)",
     "speed": "the same: the servo's mean wheel speed against the no-load speed",

@@ -26,6 +26,7 @@ import pandas as pd
 
 from batchveh.analysis.motors import (
     DIFFER,
+    GROUPS,
     IN_LOOP_REASONS,
     IN_LOOP_TEXT,
     REASON_TEXT,
@@ -186,7 +187,8 @@ def verdicts(s: Sizing) -> pd.DataFrame:
     """Per variant and candidate run in the loop (long form): the swept values, `motor`, `fits`, the reasons it
     fails (`;`-separated, IN_LOOP_REASONS), `motor_status`, `motor_check`, whether it could be simulated, whether
     its steering held (`steer_held`) and why not (`steer_reasons`, STEER_REASONS). `fits` needs the steering held:
-    a variant the steering missed is not judged for the drive."""
+    a variant the steering missed is not judged for the drive. Also each run's motor_torque_ratio, its steering
+    error (deg) and its steering motors' largest share of the run at the current limit."""
     frames = []
     for name, d in s.detail.items():
         why = d[[f"fails_{r}" for r in IN_LOOP_REASONS]].to_numpy(bool)
@@ -202,6 +204,9 @@ def verdicts(s: Sizing) -> pd.DataFrame:
         f["steer_reasons"] = [";".join(r for r, bad in zip(STEER_REASONS, w, strict=True) if bad) for w in steer_why]
         f["motor_status"] = d["motor_status"].to_numpy()
         f["motor_check"] = d["motor_check"].to_numpy()
+        f["motor_torque_ratio"] = d["motor_torque_ratio"].to_numpy(float)
+        f["steer_track_err_deg"] = d["steer_track_err_deg"].to_numpy(float)
+        f["steer_at_current_share"] = d[[f"{m}_at_current_share" for m in GROUPS["steer"]]].max(axis=1).to_numpy()
         frames.append(f)
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
 
