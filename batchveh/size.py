@@ -86,6 +86,41 @@ def wheel_accel(spec: Any, df: Any) -> Any:
     return col("speed_kmh", sc.speed_kmh) / 3.6 / col("wheel.radius", spec.vehicle.wheel.radius) / ramp
 
 
+def ramp_of(spec: Any, df: Any) -> dict[str, Any] | None:
+    """The straight line's ramp for the screen (`motors.screen_one`'s `ramp`), each variant's own: the imposed
+    wheel speed (rad/s), what each drive accelerates without its rotor (kg m^2: a quarter of the vehicle's mass,
+    the payload's with it, at the wheel's radius, and the wheel as a solid disc), the ramp time, the window, the
+    drive law, and the four wheels' grip at the wheel, mu M g cos(slope) r (N m); None for a scenario without a
+    speed ramp (a mission, a steer in place)."""
+    import numpy as np
+
+    sc = spec.scenario
+    if sc.kind != "straight_line" or not getattr(sc, "ramp_time", 0):
+        return None
+    v = spec.vehicle
+
+    def col(name: str, default: float) -> Any:
+        return df[name].to_numpy(float) if name in df else np.full(len(df), float(default))
+
+    radius = col("wheel.radius", v.wheel.radius)
+    wheel = col("wheel.mass", v.wheel.mass)
+    mass = col("chassis.mass", v.chassis.mass) + 4 * (wheel + col("hub.mass", v.hub.mass))
+    mass = mass + col("payload.mass", v.payload.mass)
+    total = float(sc.total_time)
+    return {
+        "speed": col("speed_kmh", sc.speed_kmh) / 3.6 / radius,
+        "inertia": mass * radius**2 / 4 + 0.5 * wheel * radius**2,
+        "ramp_time": col("ramp_time", sc.ramp_time),
+        "window": tuple(spec.window) if spec.window is not None else (total / 2, total),
+        "law": sc.drive_law,
+        "grip": col("friction", sc.friction)
+        * mass
+        * col("gravity", sc.gravity)
+        * np.cos(np.deg2rad(col("slope_deg", sc.slope_deg)))
+        * radius,
+    }
+
+
 def steering(table: Any, share: float) -> str:
     """The steering motor to start the loop with: the smallest that the steering's screen (`table`, the screen of
     group 'steer', whose `peak` reason holds the demand's low-pass peak against the current's bound) passes on

@@ -321,3 +321,32 @@ def test_rms_alone_and_the_duty():
     assert half.winding_temperature[0] == pytest.approx(25 + heat / (1 - 0.0039 * heat))
     assert not half.rms[0] and not half.thermal[0]
     assert screen_one(demand(df), DC).thermal[0]  # back to back: 25 + 235 deg C
+
+
+def test_a_ramp_the_motor_cannot_follow_is_short_in_the_window():
+    """A linear ramp to 10 rad/s over 2 s (5 rad/s^2) with the wheel's acceleration capped at 2.5 rad/s^2: the wheel
+    reaches 10 rad/s at 4 s. Over the window [2.5, 5] s its speed rises from 6.25 to 10 by 4 s, then holds: mean
+    ((6.25 + 10) / 2 x 1.5 + 10 x 1) / 2.5 = 8.875 rad/s, 11.25% short. At 5 rad/s^2 or more it is on time."""
+    got = motors.ramp_shortfall(10.0, 2.0, (2.5, 5.0), 2.5, law="ramp")
+    assert got == pytest.approx(0.1125, abs=2e-3)  # the 400-step grid: 1/80 s a step
+    assert motors.ramp_shortfall(10.0, 2.0, (2.5, 5.0), 5.0, law="ramp") == pytest.approx(0.0, abs=1e-12)
+    # smooth_step's peak acceleration is 15/8 of the mean: 9.375 rad/s^2 here; at 9 the wheel lags a little
+    # during the ramp, catches up before 2.5 s, and the window is on speed
+    assert motors.ramp_shortfall(10.0, 2.0, (2.5, 5.0), 9.0) == pytest.approx(0.0, abs=1e-12)
+    assert motors.ramp_shortfall(10.0, 2.0, (2.5, 5.0), 2.0) > 0.1
+
+
+def test_the_wheels_share_only_within_their_grip():
+    """Bound 3.2 N m a wheel. Torques 3.6 (the worst) and 2.0 x 3: 9.6 N m together, within 4 x 3.2. With grip
+    for 10.7 N m over the four (u = 9.6 / 10.7 = 0.897), each wheel takes at most its torque / u: the others
+    2.23 N m each, 3.2 + 3 x 2.23 = 9.89 >= 9.6: they share. With grip for 9.8 (u = 0.98): 3.2 + 3 x 2.04 =
+    9.32 < 9.6: they cannot, and the worst wheel is judged alone (4.5 A > 4 A: rms, peak)."""
+    cols = {"wheel_speed": [5.0, 5.0]}
+    for i, w in enumerate(WHEELS):
+        v = [3.6, 3.6] if i == 2 else [2.0, 2.0]
+        cols[f"{w}_rms"], cols[f"{w}_peak_lp"], cols[f"{w}_peak_lp_all"] = v, v, v
+    need = demand(pd.DataFrame({k: np.asarray(v, float) for k, v in cols.items()}))
+    ramp = {"speed": 0.0, "inertia": 1.0, "ramp_time": 1.0, "window": (2.0, 4.0), "law": "ramp", "grip": [10.7, 9.8]}
+    res = screen_one(need, DC, ramp=ramp)
+    assert not res.peak[0] and res.current_rms[0] == pytest.approx(4.0)
+    assert res.peak[1] and res.rms[1] and res.current_rms[1] == pytest.approx(4.5)

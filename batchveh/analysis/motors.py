@@ -46,6 +46,7 @@ import numpy as np
 import pandas as pd
 
 from batchveh.config import ConfigError, field, from_mapping, load_yaml
+from batchveh.stepping.motor_stats import SHORT_SHARE  # a window's mean speed this far below the imposed: short
 
 WHEELS = ("drive_lf", "drive_rf", "drive_lr", "drive_rr")
 GROUPS = {"drive": WHEELS, "steer": ("steer_lf", "steer_rf", "steer_lr", "steer_rr")}
@@ -98,6 +99,8 @@ def demand(df: pd.DataFrame, group: str = "drive", span: str | None = None) -> p
         if steady:  # what the four drives can share (screen_one)
             out["rms_mean"] = df[[f"{m}_rms" for m in names]].abs().mean(axis=1)
             out["peak_window_mean"] = df[window].abs().mean(axis=1)
+            for j, m in enumerate(names):  # each wheel's own, for the share the others can take (screen_one)
+                out[f"rms_{j}"], out[f"peak_window_{j}"] = df[f"{m}_rms"].abs(), df[f"{m}_peak_lp"].abs()
         out["speed"] = df["wheel_speed"].abs() if group == "drive" else 0.0
     else:
         out["rms"] = df[[f"{span}_{m}_rms" for m in names]].abs().max(axis=1)
@@ -107,8 +110,66 @@ def demand(df: pd.DataFrame, group: str = "drive", span: str | None = None) -> p
     return out
 
 
+RAMP_STEPS = 400  # the ramp model's time grid over [0, the window's end]
+
+
+def ramp_shortfall(speed: Any, ramp_time: Any, window: tuple[float, float], a_max: Any, law: str = "smooth_step"):
+    """Per variant, how far below the imposed speed a vehicle that can accelerate its wheels at most at `a_max`
+    (rad/s^2) runs over the steady window, relative to the imposed speed (0: on speed; SHORT_SHARE: short).
+
+    The imposed wheel speed rises from 0 to `speed` (rad/s) over `ramp_time` (s) along `law` ('smooth_step':
+    6 x^5 - 15 x^4 + 10 x^3, its peak acceleration 15/8 of the mean; 'ramp' or 'unbounded_ramp': linear, the
+    latter still rising past the ramp). The wheel follows it while its acceleration is within a_max, else it
+    accelerates at a_max until it meets the imposed speed again: w(t + dt) = min(w_ref(t + dt), w(t) + a_max dt),
+    the drive at its current's bound for as long as it is behind. The mean over the window [start, end] (s of law
+    time) against the imposed speed's mean there. Arrays of one shape (or scalars); RAMP_STEPS time steps."""
+    speed, ramp_time, a_max = np.broadcast_arrays(*(np.asarray(x, float) for x in (speed, ramp_time, a_max)))
+    start, end = window
+    dt = end / RAMP_STEPS
+    w = np.zeros_like(speed)
+    got, want = np.zeros_like(speed), np.zeros_like(speed)
+    for i in range(1, RAMP_STEPS + 1):
+        t = i * dt
+        x = t / np.maximum(ramp_time, 1e-12)
+        if law == "smooth_step":
+            x = np.clip(x, 0.0, 1.0)
+            frac = x**3 * (10 - 15 * x + 6 * x * x)
+        elif law == "ramp":
+            frac = np.clip(x, 0.0, 1.0)
+        else:
+            frac = x
+        ref = speed * frac
+        w = np.minimum(ref, w + a_max * dt)
+        if t >= start:
+            got += w
+            want += ref
+    return np.where(want > 0, 1.0 - got / np.where(want > 0, want, 1.0), 0.0)
+
+
+def _can_share(need: pd.DataFrame, what: str, bound: float, grip: Any = None) -> pd.Series:
+    """Per variant, whether the four drives can give the four wheels' `what` (`rms` or `peak_window`) together
+    with each at most `bound` and at most its grip: sum_j min(bound, T_j / u) >= sum_j T_j, where u = sum_j T_j /
+    grip is the friction the wheels use (each wheel's grip T_j / u: the slip tyre's force is its load times one
+    common slip, so each wheel's torque is its share of the load); without `grip`, sum_j min(bound, T_j) = the
+    mean within the bound."""
+    t = np.stack([need[f"{what}_{j}"].to_numpy(float) for j in range(4)], axis=-1)
+    total = t.sum(axis=-1)
+    if grip is None:
+        cap = np.full_like(t, bound)
+    else:
+        used = total / np.maximum(np.asarray(grip, float), 1e-12)
+        cap = np.minimum(bound, t / np.maximum(used, 1e-12)[:, None])
+    return pd.Series(cap.sum(axis=-1) >= total * (1 - 1e-12), index=need.index)
+
+
 def screen_one(
-    need: pd.DataFrame, motor: Any, *, armature: float = 0.0, accel: Any = 0.0, duty: float = 1.0
+    need: pd.DataFrame,
+    motor: Any,
+    *,
+    armature: float = 0.0,
+    accel: Any = 0.0,
+    duty: float = 1.0,
+    ramp: dict[str, Any] | None = None,
 ) -> pd.DataFrame:
     """Per variant, whether `motor` (a batchveh.model.motors.DCMotor with its gearhead) covers the demand
     `need` (`demand`'s columns), and why not (one boolean column per REASONS entry, True = fails).
@@ -125,13 +186,21 @@ def screen_one(
     - rms and thermal: the run repeated for `duty` of the time (the spec's `duty`, 1: back to back): the RMS
       current over time sqrt(duty) i_rms against i_max, and the winding's steady rise dT = R_T duty i_rms^2 R0
       (1 + alpha (T_a + dT - 25)), solved in closed form (runaway where R_T duty i^2 R0 alpha >= 1);
-    - gear_torque: the RMS and the whole run's peak, each at most the bound, against the gearhead's ratings.
+    - gear_torque: the RMS and the whole run's peak, each at most the bound, against the gearhead's ratings;
+    - the ramp (`ramp`: {'speed': the imposed wheel speed (rad/s), 'inertia': what each drive accelerates
+      without its rotor (kg m^2: a quarter of the vehicle at the wheel's radius and the wheel), 'ramp_time',
+      'window': (start, end) s of law time, 'law'}, per variant or one value): a drive at its bound accelerates
+      its wheel at most at (bound - the steady torque) / (inertia + J N^2); where that leaves the window's mean
+      speed more than SHORT_SHARE below the imposed (`ramp_shortfall`), the motor fails on `peak`, as the loop
+      counts a drive short at its current limit. Without it, a ramp's peak is not judged.
 
-    The four drives share (`need` with `rms_mean` and `peak_window_mean`, the four wheels' means): where the
-    mean fits within the bound, the worst wheel's RMS and window peak are taken at most at the bound: the drive
-    clips it there and the other wheels' speed loops take the rest, as the loop measured on the seed's climbs
-    (the worst wheel at its bound, the four-wheel sum the servo's, the speed held). Where the mean does not fit,
-    the worst wheel is judged on its own."""
+    The four drives share (`need` with each wheel's `rms_<j>` and `peak_window_<j>`): where the other wheels can
+    take what the worst cannot give, the worst wheel's RMS and window peak are taken at most at the bound: the
+    drive clips it there and the other wheels' speed loops take the rest, as the loop measured on the seed's
+    climbs (the worst wheel at its bound, the four-wheel sum the servo's, the speed held). Each wheel can take at
+    most the bound, and at most its grip (`ramp['grip']`, mu M g cos(slope) r over the four wheels, shared in
+    proportion to each wheel's torque: the slip tyre's force is its load times one common slip); `_can_share`.
+    Where they cannot, the worst wheel is judged on its own."""
     from batchveh.model.motors import COPPER_TEMPCOEF, REFERENCE_TEMP
 
     c = motor.resolved()
@@ -141,7 +210,8 @@ def screen_one(
     window = need["peak_window"] if "peak_window" in need else need["peak"]
     rms = need["rms"]
     if "rms_mean" in need:  # drives: the four share what one clipped wheel cannot give
-        shared = (need["rms_mean"] <= bound) & (need["peak_window_mean"] <= bound)
+        grip = None if ramp is None else ramp.get("grip")
+        shared = _can_share(need, "rms", bound, grip) & _can_share(need, "peak_window", bound, grip)
         rms, window = rms.where(~shared, np.minimum(rms, bound)), window.where(~shared, np.minimum(window, bound))
     i_rms, i_peak = np.sqrt(duty) * rms / (eta * n * k), peak / (eta * n * k)
     w_motor = need["speed"] * n
@@ -156,6 +226,11 @@ def screen_one(
     out["thermal"] = out["winding_temperature"] > c["T_max"] if c["R_T"] > 0 else False
     out["voltage"] = out["voltage_peak"] > c["V"]
     out["peak"] = window > bound
+    if ramp is not None and c["i_max"] > 0:
+        steady = need["rms_mean"] if "rms_mean" in need else need["rms"]  # the four share the vehicle's pull
+        a_max = np.maximum(bound - steady.to_numpy(), 0.0) / (np.asarray(ramp["inertia"], float) + c["J"] * n * n)
+        out["ramp_shortfall"] = ramp_shortfall(ramp["speed"], ramp["ramp_time"], ramp["window"], a_max, ramp["law"])
+        out["peak"] |= out["ramp_shortfall"] > SHORT_SHARE
     out["speed"] = w_motor > c["V"] / k
     gear_torque = np.zeros(len(need), bool)
     if motor.gear_max_continuous_torque is not None:  # the torque the motor gives: at most its bound
@@ -181,6 +256,7 @@ def screen(
     accel: Any = 0.0,
     params: list[str] | None = None,
     duty: float = 1.0,
+    ramp: dict[str, Any] | None = None,
 ) -> tuple[str | None, pd.DataFrame, dict[str, pd.DataFrame]]:
     """The fast screen of a sweep's ideal-servo demand against DC motors with their gearheads.
 
@@ -219,7 +295,7 @@ def screen(
     rows, failing = [], {}
     for name, motor in catalogue.items():
         c = motor.resolved(name)
-        res = screen_one(need, motor, armature=armature, accel=accel, duty=duty)
+        res = screen_one(need, motor, armature=armature, accel=accel, duty=duty, ramp=ramp)
         row = {
             "motor": name,
             "gear_ratio": c["N"],
@@ -259,8 +335,8 @@ DIFFER = {
     "thermal": "screen: the steady window's RMS held for ever; loop: the whole run (its ramp too), repeated",
     "voltage": "screen: the window's peak torque (at most the bound) at the mean speed; loop: short of speed at "
     "the line",
-    "peak": "screen: the window's low-pass peak above the current's bound; loop: short of speed at that bound "
-    "(a peak the loop rides through is no miss; a ramp that falls behind into the window is)",
+    "peak": "screen: the window's low-pass peak above the current's bound, or the ramp, at the bound's "
+    "acceleration, still short in the window (a straight line's); loop: short of speed at that bound",
     "speed": "the same: the servo's mean wheel speed against the no-load speed",
     "gear_torque": "the same ratings; screen on the servo's torque, loop on the motor's",
     "gear_speed": "the same rating; screen: the servo's mean wheel speed, loop: the motor's own (a wheel may spin)",
