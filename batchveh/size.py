@@ -236,7 +236,10 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
     accel = wheel_accel(spec, df)
     armature = spec.vehicle.motors.armature
     params = list(spec.params)
-    best, table, _ = screen(df, cat, share=args.share, armature=armature, accel=accel, params=params, duty=spec.duty)
+    ramp = ramp_of(spec, df)
+    best, table, _ = screen(
+        df, cat, share=args.share, armature=armature, accel=accel, params=params, duty=spec.duty, ramp=ramp
+    )
     _, steer_table, _ = screen(df, cat, share=args.share, group="steer", params=params, duty=spec.duty)
     steer = args.steer or steering(steer_table, args.share)
     walls["screen"] = time.perf_counter() - t0

@@ -205,3 +205,27 @@ def test_the_tyre_moment_is_what_holds_it():
     assert max(float(np.max(held[f"steer_{c}_at_current_share"])) for c in CORNERS) == 0.0
     lost = _robot(98.68)
     assert np.all(lost["steer_track_err_deg"] > 90.0), lost["steer_track_err_deg"]
+
+
+def test_a_steering_miss_is_the_steerings_never_the_drives():
+    """in_loop on the robot with the old kp (98.68 N m/rad) set in its spec: the two fast rows lose their steering,
+    a slow third row (1 km/h, 2 deg) holds. The two are counted as the steering's misses (lost), the drive is judged
+    on the third alone (coverage 1.0, no reason counted), and the steering's own coverage is 1/3."""
+    import dataclasses
+
+    import pandas as pd
+
+    from batchveh.analysis.motors import in_loop
+    from batchveh.sweeping.spec import load_spec
+
+    spec = load_spec(ROBOT)
+    motors = dataclasses.replace(spec.vehicle.motors, dc_steer_kp=98.68)
+    spec = dataclasses.replace(spec, vehicle=dataclasses.replace(spec.vehicle, motors=motors))
+    rows = pd.DataFrame({k: [*v, w] for (k, v), w in zip(ROWS.items(), [10.0, 2.0, 1.0, 0.8], strict=True)})
+    best, table, detail = in_loop(spec, rows, CATALOGUE, ["faulhaber-3863H048CR_NPT015-i28"],
+                                  steer="faulhaber-3564K024B_NPT015-i40", hot=False)  # fmt: skip
+    row = table.iloc[0]
+    assert row.steer_misses == 2 and row.steer_fails_lost == 2, row.to_dict()
+    assert row.steer_coverage == pytest.approx(1 / 3)
+    assert row.coverage == 1.0 and best == "faulhaber-3863H048CR_NPT015-i28"
+    assert list(detail[best]["steer_fails_lost"]) == [True, True, False]

@@ -350,3 +350,22 @@ def test_the_wheels_share_only_within_their_grip():
     res = screen_one(need, DC, ramp=ramp)
     assert not res.peak[0] and res.current_rms[0] == pytest.approx(4.0)
     assert res.peak[1] and res.rms[1] and res.current_rms[1] == pytest.approx(4.5)
+
+
+@pytest.mark.parametrize("duty", [1.0, 0.5, 0.2])
+def test_the_hot_start_at_a_duty_is_the_cycles_steady_state(duty):
+    """A one-node winding heated towards a rise P = 80 K (time constant 30 s) for a 10 s run, then resting (1 / duty
+    - 1) runs at ambient, cycle after cycle: 300 cycles of the closed-form node from cold settle on s*. From a cold
+    start (s = 0), one step of `_hot_start` on that run's end, cooled over the rest, lands on s*."""
+    from batchveh.analysis.motors import _hot_start
+
+    p_rise, tau, run = 80.0, 30.0, 10.0
+    rest = run * (1 / duty - 1)
+    s = 0.0
+    for _ in range(300):
+        end = p_rise + (s - p_rise) * np.exp(-run / tau)
+        s = end * np.exp(-rest / tau)
+    cold_end = p_rise * (1 - np.exp(-run / tau)) * np.exp(-rest / tau)
+    assert _hot_start(np.array([cold_end]), run, tau, rest)[0] == pytest.approx(s, rel=1e-9)
+    # the fixed point in closed form: P (1 - e^(-D/tau)) e^(-r/tau) / (1 - e^(-(D + r)/tau))
+    assert s == pytest.approx(cold_end / (1 - np.exp(-(run + rest) / tau)), rel=1e-9)

@@ -429,9 +429,9 @@ def in_loop(
     continuous_torque_at_wheel, coverage, not_simulated, not_simulated_why, fails_<reason> for each of
     IN_LOOP_REASONS, start_rise_median, residual_K, runs; `in_loop_lines` words it); {name: DataFrame} per
     candidate, each variant's parameters, its in-the-loop columns and fails_<reason> (True = fails). A
-    variant whose run failed a physics check (`motor_status` unstable) or diverged could not be simulated:
-    it is counted in the row's `not_simulated`, never as a reason, and the coverage is over the variants
-    simulated.
+    variant whose run diverged, or failed a physics check (`motor_status` unstable) with its steering held, could
+    not be simulated (`not_simulated`): it is counted in the row's `not_simulated`, never as a reason, and the
+    coverage is over the variants simulated.
 
     With `hot`, a candidate runs first from ambient, then `iterations` times from the start rise that would
     make its run end where it started (`_hot_start` from the previous run's end, each drive and steering
@@ -492,7 +492,7 @@ def in_loop(
                 }
         # a variant whose run failed a physics check (or diverged) says nothing of the motor: apart, never a reason
         diverged = res["status_code"].to_numpy() == 1
-        lost = (res["motor_status"] == "unstable").to_numpy() | diverged
+        lost = not_simulated(res)
         why_lost = pd.Series(np.where(diverged, "diverged", res["motor_check"].to_numpy()))[lost].value_counts()
         servo_speed = df["wheel_speed"].to_numpy(float) if "wheel_speed" in df else None
         why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE, duty, servo_speed)
@@ -536,6 +536,17 @@ def in_loop(
             if stop_at_first:
                 break
     return best, pd.DataFrame(rows), detail
+
+
+def not_simulated(res: pd.DataFrame) -> np.ndarray:
+    """Per variant of an in-the-loop result, whether its run says nothing of the motors: it diverged, or failed a
+    physics check (`motor_status` unstable) with its steering held. A run whose steering lost its angle (more
+    than STEER_LOST_DEG off) and then failed a check is the steering's miss, not a lost run: the wheel whipped
+    round by its steering is what the check caught (a drive's torque above its bound: `implicitfast`'s back-EMF
+    damping at the end-of-step speed of a wheel slowed hard within one step; docs/motors.md)."""
+    diverged = res["status_code"].to_numpy() == 1
+    steer_lost = res["steer_track_err_deg"].to_numpy() > STEER_LOST_DEG
+    return diverged | ((res["motor_status"] == "unstable").to_numpy() & ~steer_lost)
 
 
 def in_loop_lines(table: pd.DataFrame) -> list[str]:

@@ -34,6 +34,7 @@ from batchveh.analysis.motors import (
     STEER_REASONS,
     STEER_TEXT,
     WHEELS,
+    not_simulated,
 )
 
 FIGURES = "figures"
@@ -192,7 +193,7 @@ def verdicts(s: Sizing) -> pd.DataFrame:
     frames = []
     for name, d in s.detail.items():
         why = d[[f"fails_{r}" for r in IN_LOOP_REASONS]].to_numpy(bool)
-        lost = (d["motor_status"] == "unstable").to_numpy() | (d["status_code"].to_numpy() == 1)
+        lost = not_simulated(d)
         f = d[list(s.params)].copy()
         f.insert(0, "variant", np.arange(len(d)))
         f["motor"] = name
@@ -256,7 +257,7 @@ def misses(ax, s: Sizing, name: str) -> None:
     d = s.detail[name]
     x, y = s.params[0], (s.params[1] if len(s.params) > 1 else None)
     yv = d[y].to_numpy(float) if y else np.zeros(len(d))
-    lost = (d["motor_status"] == "unstable").to_numpy() | (d["status_code"].to_numpy() == 1)
+    lost = not_simulated(d)
     why = d[[f"fails_{r}" for r in IN_LOOP_REASONS]].to_numpy(bool)
     ok = ~lost & ~why.any(axis=1) & ~d[[f"steer_fails_{r}" for r in STEER_REASONS]].to_numpy(bool).any(axis=1)
     ax.scatter(d[x][ok], yv[ok], s=8, color="0.75", label=f"covered ({ok.sum()})")
@@ -399,8 +400,9 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
             "DC motors driven by batchveh's drive, from the hot steady state of back-to-back runs.",
         ),
         ("Verdict: the drive motors", "table", verdict_table(s)),
-        ("", "text", f"Screen misses: {screen}. Loop misses: {reasons}. Not simulated: a run that failed its own "
-                     "physics checks or diverged; it says nothing of the motor and is never counted against it. "
+        ("", "text", f"Screen misses: {screen}. Loop misses: {reasons}. Not simulated: a run that diverged or failed "
+                     "its own physics checks with its steering held; it says nothing of the motor and is never "
+                     "counted against it (a run whose steering was lost first is the steering's miss). "
                      "Steering misses: the steering motor's, never the drive's: not counted for the drive."),
         ("Verdict: the steering motor", "table", steer_table(s)),
         ("", "text", "The steering's criteria in the loop: " + "; ".join(
