@@ -202,7 +202,7 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
 
     import batchveh
     from batchveh.analysis import report
-    from batchveh.analysis.motors import in_loop, screen
+    from batchveh.analysis.motors import IN_LOOP_REASONS, STEER_REASONS, in_loop, screen
     from batchveh.model.motors import pick
     from batchveh.sweep import count_variants, run_sweep
     from batchveh.sweeping.results import load
@@ -284,6 +284,9 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
     # its own hot start: back to back, a run ends where it started (in_loop's last run, within its residual)
     ends = d[[f"drive_{c}_winding_temp_end" for c in ("lf", "rf", "lr", "rr")]].max(axis=1).to_numpy()
     rise = max(float(ends[worst]) - cat[hottest].resolved()["T_amb"], 0.0)
+    reasons = [r for r in IN_LOOP_REASONS if bool(d[f"fails_{r}"].iloc[worst])]
+    reasons += [f"steering {r}" for r in STEER_REASONS if bool(d[f"steer_fails_{r}"].iloc[worst])]
+    worst_note = f"{hottest} misses it: {', '.join(reasons)}" if reasons else f"{hottest} covers it"
     t0 = time.perf_counter()
     series = trace(spec, args.catalogue, hottest, steer, values, rise)
     walls["trace"] = time.perf_counter() - t0
@@ -306,6 +309,7 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
         battery=battery_of(args.catalogue),
         trace=series,
         worst=values,
+        worst_note=worst_note,
         versions={
             "batchveh": batchveh.__version__,
             "MuJoCo": mujoco.__version__,

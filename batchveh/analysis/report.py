@@ -64,6 +64,7 @@ class Sizing:
     steer_loop: pd.DataFrame | None = None  # every in_loop row run, each with its steering's verdict and `drive`
     not_run: dict[str, str] = field(default_factory=dict)  # drive motor -> why it did not run in the loop
     duty: float = 1.0  # the spec's duty: the share of the time the run repeats
+    worst_note: str = ""  # whether the motor covers the hottest variant, and why not
 
 
 def focus(s: Sizing) -> str | None:
@@ -232,9 +233,10 @@ def torque_speed(ax, s: Sizing, name: str) -> None:
                         label=f"continuous current: {cont:.2f} N m")  # fmt: skip
     demand = s.servo  # the screen's demand: the servo's window RMS at its mean speed (grey, behind the loop's)
     rms_servo = demand[[f"{m}_rms" for m in WHEELS]].abs().max(axis=1).to_numpy()
-    ax.scatter(demand["wheel_speed"].abs(), rms_servo, s=5, color="0.7", label="servo's RMS (the screen's demand)")
-    if d is not None:
-        speed = d["wheel_speed"].abs().to_numpy()
+    ax.scatter(demand["wheel_speed"], rms_servo, s=5, color="0.7", label="servo's RMS (the screen's demand)")
+    speed = demand["wheel_speed"].to_numpy(float)
+    if d is not None:  # signed: a vehicle its motor cannot hold on a climb rolls back (negative speed)
+        speed = d["wheel_speed"].to_numpy(float)
         rms = d[[f"{m}_rms" for m in WHEELS]].abs().max(axis=1).to_numpy()
         peak = d[[f"{m}_peak_lp_all" for m in WHEELS]].abs().max(axis=1).to_numpy()
         ax.scatter(speed, peak, s=6, color="tab:orange", label="low-pass peak")
@@ -243,9 +245,11 @@ def torque_speed(ax, s: Sizing, name: str) -> None:
     if c["i_max"]:  # the region that matters: up to a few times the continuous torque, or the highest point
         seen = float(np.max(peak)) if d is not None else float(np.max(rms_servo))
         top = min(top, max(3 * eta * n * k * c["i_max"], 1.3 * seen))
-    ax.set_xlim(0, w0 * 1.05)
+    ax.set_xlim(min(0.0, 1.05 * float(np.min(speed))), w0 * 1.05)
+    if np.min(speed) < 0:
+        ax.axvline(0.0, color="k", lw=0.5)
     ax.set_ylim(0, top)
-    ax.set_xlabel("wheel speed (rad/s)")
+    ax.set_xlabel("wheel speed (rad/s; < 0: rolled back)" if np.min(speed) < 0 else "wheel speed (rad/s)")
     ax.set_ylabel("drive torque at the wheel (N m)")
     ran = "in the loop" if d is not None else "not run in the loop: the servo's demand only"
     ax.set_title(f"{name}\n{n:g}:1, eta {eta:g}, {v:g} V; {ran}", fontsize=9)
@@ -288,7 +292,8 @@ def worst_trace(axes, s: Sizing) -> None:
     ax.set_xlabel("time (s)")
     ax.set_ylabel("winding temperature (deg C)")
     where = ", ".join(f"{k} {v:.4g}" for k, v in s.worst.items())
-    ax.set_title(f"the hottest variant in the loop, from its hot start\n({where})", fontsize=9)
+    note = f"\n{s.worst_note}" if s.worst_note else ""
+    ax.set_title(f"the hottest variant in the loop, from its hot start\n({where}){note}", fontsize=9)
     ax.legend(fontsize=7)
     bx.plot(t["time"], t["bus_power"], lw=1, color="tab:blue", label="bus power (W)")
     if s.battery is not None:
