@@ -70,7 +70,7 @@ def test_the_command_chooses_and_writes_its_report(sized, capsys):
     assert (verdicts.groupby("motor").size() == LIMIT).all()
     chosen = verdicts[verdicts["motor"] == summary["chosen"]]
     coverage = next(r["coverage"] for r in summary["loop"] if r["motor"] == summary["chosen"])
-    assert chosen["fits"].sum() / chosen["simulated"].sum() == pytest.approx(coverage)
+    assert chosen["fits"].sum() / chosen["steer_held"].sum() == pytest.approx(coverage)
     assert main(args) == EXIT_EXISTS  # a report there: not replaced without --overwrite
     assert "give --overwrite" in capsys.readouterr().err
 
@@ -80,14 +80,15 @@ def test_the_choice_is_what_screen_and_in_loop_give_by_hand(sized):
     import batchveh
     from batchveh.analysis.motors import in_loop, screen
     from batchveh.model.motors import load_catalogue
-    from batchveh.size import wheel_accel
+    from batchveh.size import ramp_of, wheel_accel
 
     out, _, _ = sized
     summary = json.loads((out / "sizing.json").read_text())
     spec = batchveh.load_spec(SPEC)
     df = batchveh.load(out / "servo")
     cat = load_catalogue(CATALOGUE)
-    best, table, _ = screen(df, cat, share=0.99, armature=spec.vehicle.motors.armature, accel=wheel_accel(spec, df))
+    arm, accel, ramp = spec.vehicle.motors.armature, wheel_accel(spec, df), ramp_of(spec, df)
+    best, table, _ = screen(df, cat, share=0.99, armature=arm, accel=accel, duty=spec.duty, ramp=ramp)
     assert [r["coverage"] for r in summary["screen"]] == list(table["coverage"])
     chosen = None
     for name in candidates(table, best):
