@@ -45,12 +45,13 @@ def by_hand(spec_path: Path, out: Path, share: float = 0.99) -> str | None:
     """The screen and the loop called by hand on the servo rows the command wrote."""
     import batchveh
     from batchveh.analysis.motors import in_loop, screen
-    from batchveh.size import candidates, wheel_accel
+    from batchveh.size import candidates, ramp_of, wheel_accel
 
     spec = batchveh.load_spec(spec_path)
     df = batchveh.load(out / "servo")
     cat = batchveh.load_catalogue(CATALOGUE)
-    best, table, _ = screen(df, cat, share=share, armature=spec.vehicle.motors.armature, accel=wheel_accel(spec, df))
+    arm, accel, ramp = spec.vehicle.motors.armature, wheel_accel(spec, df), ramp_of(spec, df)
+    best, table, _ = screen(df, cat, share=share, armature=arm, accel=accel, duty=spec.duty, ramp=ramp)
     steer = json.loads((out / "sizing.json").read_text())["steer"]
     for name in candidates(table, best):
         got, _, _ = in_loop(spec, df, CATALOGUE, [name], steer=steer, share=share)
