@@ -47,6 +47,10 @@ RAMP_MIN, RAMP_MAX = 1.0, 20.0  # s
 RECOVER, WINDOW = 1.0, 2.0  # s after the ramp, then the steady window
 FAST_EXAMPLES, SLOW_EXAMPLES = 3, 150
 COMMON = {"deadline": None, "derandomize": True, "database": None}
+# the bounds, the loop's own (analysis.motors STEER_LIMIT_SHARE, STEER_LOST_DEG; asserted equal below). Measured over
+# the long pass's 150 draws (validation/results/any_steering.json):
+AT_LIMIT_SHARE = 0.05  # the steering at its current limit, share of the run: measured 0.044 at most (p99 0)
+LOST_DEG = 5.0  # steering angle off the imposed one (deg): measured 0.0058 at most (p99 1.6e-4)
 RECORD = os.environ.get("BATCHVEH_ANY_STEERING_RECORD")
 
 
@@ -155,8 +159,9 @@ def check(ex: dict, got: dict) -> None:
     where = f"{ex} -> {got}"
     assert got["status_code"] == 0, where
     assert got["servo_slipping"] or not got["slipping"], where
-    assert got["steer_at_current"] <= STEER_LIMIT_SHARE, where
-    assert got["steer_err_deg"] <= STEER_LOST_DEG, where
+    assert (AT_LIMIT_SHARE, LOST_DEG) == (STEER_LIMIT_SHARE, STEER_LOST_DEG)
+    assert got["steer_at_current"] <= AT_LIMIT_SHARE, where
+    assert got["steer_err_deg"] <= LOST_DEG, where
     assert got["motor_status"] != "unstable", where
 
 

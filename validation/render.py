@@ -124,6 +124,13 @@ CHECKS = [
     ("Sum with rolling resistance", "m g (sin s + C_rr cos s) r", "test_contact.py", ["RR_RTOL"], None),
     ("Drive work over a step", "m g h + rolling work + kinetic energy", "test_course.py", ["ENERGY_RTOL"], None),
     ("Warp against C over a bump: peaks and RMS", "MuJoCo C float64", "test_course.py", ["BUMP_PEAK_RTOL"], None),
+    (
+        "Any steering motor with 1.5x the servo's peak, 20-2,000 kg, contact 0.1 m off its axis",
+        "holds its angle, off its current limit",
+        "test_any_steering.py",
+        ["AT_LIMIT_SHARE", "LOST_DEG"],
+        None,
+    ),
     ("Steering in place: wheel load", "m g / 4", "test_scrub.py", ["NORMAL_RTOL"], None),
     ("Steering in place: edge couple", "mu N w / 2", "test_scrub.py", ["EDGE_COUPLE_RTOL"], None),
     (
