@@ -126,6 +126,10 @@ def test_a_missing_or_empty_catalogue_is_one_line(tmp_path, capsys):
     rc = main([str(spec), "--catalogue", str(CATALOGUE), "--quiet"])
     err = capsys.readouterr().err.strip()
     assert rc == EXIT_INPUT and "payload.mas" in err and "\n" not in err
+    spec.write_text(SPEC.read_text() + "duty: 1.5\n")  # the share of the time the run repeats: 0 < duty <= 1
+    rc = main([str(spec), "--catalogue", str(CATALOGUE), "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert rc == EXIT_INPUT and "bad.yaml: duty: 1.5" in err and "<= 1" in err and "\n" not in err
 
 
 def test_the_dry_run_estimates_every_phase(capsys):
