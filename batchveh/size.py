@@ -237,10 +237,10 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
     armature = spec.vehicle.motors.armature
     params = list(spec.params)
     ramp = ramp_of(spec, df)
-    best, table, _ = screen(
-        df, cat, share=args.share, armature=armature, accel=accel, params=params, duty=spec.duty, ramp=ramp
-    )
-    _, steer_table, _ = screen(df, cat, share=args.share, group="steer", params=params, duty=spec.duty)
+    span = args.span or ("mission" if spec.scenario.kind == "mission" else None)  # a duty cycle: the whole of it
+    common = {"share": args.share, "params": params, "duty": spec.duty, "span": span}
+    best, table, _ = screen(df, cat, armature=armature, accel=accel, ramp=ramp, **common)
+    _, steer_table, _ = screen(df, cat, group="steer", **common)
     steer = args.steer or steering(steer_table, args.share)
     walls["screen"] = time.perf_counter() - t0
     runs = candidates(table, best)
@@ -305,6 +305,7 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
         steer_loop=pd.concat(steer_rows, ignore_index=True),
         not_run=not_run(table, runs, list(loop["motor"]), chosen, best),
         duty=spec.duty,
+        span=span,
         catalogue=cat,
         battery=battery_of(args.catalogue),
         trace=series,
@@ -370,6 +371,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", help="the sizing's folder (default: the spec's output + '-sizing')")
     parser.add_argument("--steer", help="the steering motor's catalogue name (default: the screen's choice)")
     parser.add_argument("--backend", choices=("auto", "mujoco", "warp"), help="as batchveh.sweep's")
+    parser.add_argument(
+        "--span",
+        help="the span the screen reads: a mission's 'mission' (the default for a mission: the whole cycle, each "
+        "segment checked on its own) or one segment's ('seg2_climb'); a straight line reads its steady window",
+    )
     parser.add_argument("--limit", type=int, help="the first N variants only")
     parser.add_argument("--overwrite", action="store_true", help="replace a report in --out")
     parser.add_argument("--dry-run", action="store_true", help="estimate the whole run, then stop")

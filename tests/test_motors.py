@@ -165,12 +165,17 @@ def test_a_mission_span_is_screened_on_its_own_rms_peak_and_peak_speed():
     """span='mission' or a segment's prefix reads <span>_<motor>_rms, _peak_lp and _speed_peak. The climb's
     second row: 3.3 N m RMS = 4.125 A > 4 A (and 25 + 235 deg C), 4 N m peak = 5 A, above the 4 A limit, at 22
     rad/s at the wheel = 440 rad/s at the motor: 5 x 1.2 + 0.05 x 440 = 28 V > 24 V, and 440 > the gearhead's 400
-    rad/s input (but under the no-load 480). The whole mission's rows fit (3 N m peak = 3.75 A)."""
+    rad/s input (but under the no-load 480). The whole mission's RMS, peak and speed fit (3 N m peak = 3.75 A), but
+    span='mission' also checks each segment on its own: the climb's second row fails there on its instantaneous
+    limits (not on the climb's own RMS: the cycle's heat is the whole cycle's)."""
     df = _mission_frame(
         {"mission": ([2.0, 2.0], [3.0, 3.0], [10.0, 10.0]), "seg3_climb": ([2.0, 3.3], [3.0, 4.0], [10.0, 22.0])}
     )
     best, table, failing = screen(df, {"dc-test": DC}, share=1.0, span="mission")
-    assert best == "dc-test" and table.coverage[0] == 1.0
+    assert best is None and table.coverage[0] == 0.5
+    bad = failing["dc-test"]
+    assert {r for r in REASONS if bad.loc[1, r]} == {"voltage", "gear_speed", "peak"}
+    assert bad.loc[1, "where"] == "seg3_climb: voltage at 22 rad/s"
     best, table, failing = screen(df, {"dc-test": DC}, share=1.0, span="seg3_climb")
     assert best is None and table.coverage[0] == 0.5
     bad = failing["dc-test"]
@@ -369,3 +374,28 @@ def test_the_hot_start_at_a_duty_is_the_cycles_steady_state(duty):
     assert _hot_start(np.array([cold_end]), run, tau, rest)[0] == pytest.approx(s, rel=1e-9)
     # the fixed point in closed form: P (1 - e^(-D/tau)) e^(-r/tau) / (1 - e^(-(D + r)/tau))
     assert s == pytest.approx(cold_end / (1 - np.exp(-(run + rest) / tau)), rel=1e-9)
+
+
+def test_a_duty_cycle_is_screened_on_the_whole_cycle_and_each_segment():
+    """A mission's rows: its steady window (the usual columns) fits the DC motor (0.8 N m/A, 4 A, no-load 24 rad/s
+    at the wheel, the gearhead's input 400 rad/s = 20 at the wheel) on every row; the cycle does not. Row 0: a
+    segment's peak speed 24.5 rad/s past the no-load speed (and the gearhead's input), where its 2 N m need
+    2.5 A x 1.2 + 0.05 x 490 = 27.5 V > 24 V: the segment is named. Row 1: the cycle's RMS 3.3 N m = 4.125 A > 4 A
+    (and 25 + 235 deg C). Row 2: the cycle's RMS 3.1 N m = 3.875 A, under 4 A but 25 + 187 deg C: heat alone."""
+    window = {"rms": [2.0, 2.0, 2.0], "peak": [2.0, 2.0, 2.0], "speed": [10.0, 10.0, 10.0]}
+    spans = {
+        "mission": ([2.0, 3.3, 3.1], [2.0, 3.1, 3.1], [24.5, 10.0, 10.0]),
+        "seg0_cruise": ([2.0, 2.0, 2.0], [2.0, 2.0, 2.0], [10.0, 10.0, 10.0]),
+        "seg1_climb": ([2.0, 3.3, 3.1], [2.0, 3.1, 3.1], [24.5, 10.0, 10.0]),
+    }
+    df = pd.concat([_frame(window["rms"], window["peak"], window["speed"]), _mission_frame(spans)], axis=1)
+    best, table, _ = screen(df, {"dc-test": DC}, share=1.0)
+    assert best == "dc-test" and table.coverage[0] == 1.0  # the window alone: every row fits
+    best, table, failing = screen(df, {"dc-test": DC}, share=1.0, span="mission")
+    bad = failing["dc-test"]
+    assert best is None and list(bad.index) == [0, 1, 2]
+    assert {r for r in REASONS if bad.loc[0, r]} == {"voltage", "speed", "gear_speed"}
+    assert bad.loc[0, "where"] == "seg1_climb: voltage at 24.5 rad/s"
+    assert {r for r in REASONS if bad.loc[1, r]} == {"rms", "thermal"} and bad.loc[1, "where"] == "mission: rms"
+    assert {r for r in REASONS if bad.loc[2, r]} == {"thermal"} and bad.loc[2, "where"] == "mission: thermal"
+    assert table.limiting[0].endswith("(1 of 3)")

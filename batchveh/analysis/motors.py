@@ -282,8 +282,8 @@ def screen(
       continuous_torque_at_wheel (N m), coverage (0-1) and fails_<reason> for each of REASONS (the count
       of variants failing for it; a variant may fail for several);
     - failing: {name: DataFrame} per candidate, its failing variants (index of `df`): the `params`
-      columns of `df` (default: every sweepable parameter's column in `df`) and one boolean column per
-      reason (True = fails)."""
+      columns of `df` (default: every sweepable parameter's column in `df`), one boolean column per
+      reason (True = fails) and `where`, the span (a mission's segment) and reason it fails for first."""
     if not 0 < share <= 1:
         raise ConfigError(f"share: {share!r} is not allowed; allowed: 0 < share <= 1")
     need = demand(df, group, span)
@@ -292,23 +292,78 @@ def screen(
 
         params = [col for col in df.columns if col in parameter_specs()]
     keep = list(params)
+    segments = mission_segments(df) if span == "mission" else []
     rows, failing = [], {}
     for name, motor in catalogue.items():
         c = motor.resolved(name)
         res = screen_one(need, motor, armature=armature, accel=accel, duty=duty, ramp=ramp)
+        where = _segments(df, group, segments, motor, res) if segments else _where(res, span or "window")
         row = {
             "motor": name,
             "gear_ratio": c["N"],
             "continuous_torque_at_wheel": c["eta"] * c["N"] * c["K"] * c["i_max"] if c["i_max"] else np.nan,
             "coverage": float(res["fits"].mean()),
             **{f"fails_{why}": int(res[why].sum()) for why in REASONS},
+            "limiting": _limiting(where[~res["fits"]]),
         }
         rows.append(row)
         bad = ~res["fits"]
-        failing[name] = pd.concat([df.loc[bad, keep], res.loc[bad, list(REASONS)]], axis=1)
+        failing[name] = pd.concat([df.loc[bad, keep], res.loc[bad, list(REASONS)], where[bad].rename("where")], axis=1)
     table = pd.DataFrame(rows).sort_values("continuous_torque_at_wheel").reset_index(drop=True)
     ok = table[table["coverage"] >= share]
     return (ok["motor"].iloc[0] if len(ok) else None), table, failing
+
+
+INSTANT = ("voltage", "peak", "speed", "gear_speed")  # a segment's own demand: these, and the gearhead's peak
+
+
+def mission_segments(df: pd.DataFrame) -> list[str]:
+    """A mission result's segment spans (`seg1_accelerate`, ...), in mission order."""
+    spans = {c.removesuffix("_drive_lf_rms") for c in df.columns if c.startswith("seg") and c.endswith("_drive_lf_rms")}
+    return sorted(spans, key=lambda x: int(x[3:].split("_")[0]))
+
+
+def _where(res: pd.DataFrame, span: str) -> pd.Series:
+    """Per variant, the first reason it fails for, named with its span ("window: voltage"); "" where it fits."""
+    out = pd.Series("", index=res.index, dtype=object)
+    for why in REASONS:
+        out[(out == "") & res[why].astype(bool)] = f"{span}: {why}"
+    return out
+
+
+def _segments(df: pd.DataFrame, group: str, segments: list[str], motor: Any, res: pd.DataFrame) -> pd.Series:
+    """A mission's duty cycle on the screen: each segment's own demand (its RMS, low-pass peak and peak speed)
+    against the motor's instantaneous limits (INSTANT: a climb at speed is a point on the torque-speed plane,
+    not an average; and the gearhead's intermittent rating), ORed into `res` in place; the cycle's RMS and heat
+    stay the whole mission's. Per variant, the first segment and reason it fails for ("seg3_climb: voltage at
+    16.5 rad/s"), or the cycle's ("mission: thermal"); "" where it fits."""
+    c = motor.resolved()
+    bound = c["eta"] * c["N"] * c["K"] * c["i_max"] if c["i_max"] > 0 else np.inf
+    where = pd.Series("", index=res.index, dtype=object)
+    for seg in segments:
+        need = demand(df, group, seg)
+        got = screen_one(need, motor)
+        if motor.gear_max_intermittent_torque is not None:
+            got["gear_torque"] = np.minimum(need["peak"], bound) > motor.gear_max_intermittent_torque
+        for why in (*INSTANT, "gear_torque"):
+            hit = got[why].to_numpy(bool)
+            res[why] = res[why].to_numpy(bool) | hit
+            new = hit & (where == "").to_numpy()
+            speeds = need["speed"].to_numpy()[new]
+            where[new] = [f"{seg}: {why} at {w:.3g} rad/s" for w in speeds]
+    res["fits"] = ~res[list(REASONS)].any(axis=1)
+    rest = _where(res, "mission")
+    where[(where == "") & (rest != "")] = rest
+    return where
+
+
+def _limiting(where: pd.Series) -> str:
+    """The commonest segment and reason among a motor's failing variants, and how many fail there."""
+    if not len(where):
+        return ""
+    key = where.str.replace(r" at .*", "", regex=True)
+    top = key.value_counts()
+    return f"{top.index[0]} ({int(top.iloc[0])} of {len(where)})"
 
 
 # --- the second pass: the screen's survivors in the loop, from the hot steady state ---
@@ -582,7 +637,8 @@ def _in_loop_reasons(
     i_share = res[[f"{m}_at_current_share" for m in WHEELS]].max(axis=1).to_numpy()
     at_v, at_i = v_share > limited, i_share > limited
     out = pd.DataFrame(index=res.index)
-    i_rms = np.sqrt(duty) * res[[f"{m}_current_rms" for m in WHEELS]].max(axis=1).to_numpy()
+    cycle = "mission_" if "mission_drive_lf_current_rms" in res else ""  # a duty cycle's RMS is the whole cycle's
+    i_rms = np.sqrt(duty) * res[[f"{cycle}{m}_current_rms" for m in WHEELS]].max(axis=1).to_numpy()
     out["rms"] = i_rms > c["i_max"] if c["i_max"] > 0 else False
     out["thermal"] = res[[f"{m}_winding_temp_peak" for m in WHEELS]].max(axis=1).to_numpy() > c["T_max"]
     out["voltage"] = short & at_v & (v_share > i_share)  # the limit it spent longer at

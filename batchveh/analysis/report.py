@@ -65,6 +65,7 @@ class Sizing:
     not_run: dict[str, str] = field(default_factory=dict)  # drive motor -> why it did not run in the loop
     duty: float = 1.0  # the spec's duty: the share of the time the run repeats
     worst_note: str = ""  # whether the motor covers the hottest variant, and why not
+    span: str | None = None  # the span the screen read: None the steady window, 'mission' the whole cycle
 
 
 def focus(s: Sizing) -> str | None:
@@ -101,7 +102,7 @@ def verdict_table(s: Sizing) -> pd.DataFrame:
             "ratio": f"{r['gear_ratio']:g}:1",
             "continuous at wheel (N m)": round(float(r["continuous_torque_at_wheel"]), 3),
             "screen": f"{r['coverage']:.1%}",
-            "screen misses": _counts(r, REASONS),
+            "screen misses": _counts(r, REASONS) + (f"; first: {r['limiting']}" if r.get("limiting") else ""),
         }
         if name in loop.index:
             q = loop.loc[name]
@@ -136,7 +137,7 @@ def steer_table(s: Sizing) -> pd.DataFrame:
             "ratio": f"{r['gear_ratio']:g}:1",
             "continuous at the hinge (N m)": round(float(r["continuous_torque_at_wheel"]), 3),
             "screen": f"{r['coverage']:.1%}",
-            "screen misses": _counts(r, REASONS),
+            "screen misses": _counts(r, REASONS) + (f"; first: {r['limiting']}" if r.get("limiting") else ""),
         }
         mine = runs[runs["steer"] == name] if len(runs) else runs
         if len(mine):
@@ -414,6 +415,10 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
             f"{k}: {v}" for k, v in STEER_TEXT.items()) + f". It must hold on {s.share:.0%} of the variants "
             "simulated, or the next larger steering motor runs with the same drive."),
         ("Screen against loop, reason by reason", "table", reason_table(s)),
+        ("", "text", "The screen read " + (
+            "the steady window" if s.span is None else "the whole duty cycle (its RMS and heat), each segment also "
+            "checked on its own demand against the motor's instantaneous limits (the first segment and reason a "
+            "variant fails for is named)" if s.span == "mission" else f"the span {s.span}") + "."),
         ("", "text", f"Both passes use one list of criteria at the spec's duty ({s.duty:g} of the time: "
                      f"{'the run repeated back to back' if s.duty >= 1 else 'the run repeated with rests between'}"
                      "). The screen counts over every variant; the loop over the variants simulated whose steering "
