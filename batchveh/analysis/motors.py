@@ -550,7 +550,10 @@ def in_loop(
         lost = not_simulated(res)
         why_lost = pd.Series(np.where(diverged, "diverged", res["motor_check"].to_numpy()))[lost].value_counts()
         servo_speed = df["wheel_speed"].to_numpy(float) if "wheel_speed" in df else None
-        why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE, duty, servo_speed)
+        behind = segment_shortfall(df.reset_index(drop=True), res)
+        why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE, duty, servo_speed, behind != "")
+        where = _where(why, "window")
+        where[behind != ""] = behind[behind != ""] + ": " + where[behind != ""].str.split(": ").str[-1]
         why.loc[lost, :] = False
         steer_why = steer_reasons(res, cat[steer], cs, duty)
         steer_why.loc[lost, :] = False
@@ -568,6 +571,7 @@ def in_loop(
                 "not_simulated": int(lost.sum()),
                 "not_simulated_why": ", ".join(f"{v} {k}" for k, v in why_lost.items()),
                 **{f"fails_{r}": int(why[r].to_numpy()[judged].sum()) for r in IN_LOOP_REASONS},
+                "limiting": _limiting(where[judged & ~fits.to_numpy()]),
                 "steer": steer,
                 "steer_misses": int(steer_bad.sum()),
                 "steer_coverage": float(1.0 - steer_bad.sum() / simulated),
@@ -583,6 +587,7 @@ def in_loop(
                 res,
                 why.add_prefix("fails_"),
                 steer_why.add_prefix("steer_fails_"),
+                where.rename("where"),
             ],
             axis=1,
         )
@@ -621,6 +626,19 @@ def in_loop_lines(table: pd.DataFrame) -> list[str]:
     return lines
 
 
+def segment_shortfall(servo: pd.DataFrame, res: pd.DataFrame) -> pd.Series:
+    """Per variant of a mission run in the loop, the first segment whose distance falls more than SHORT_SHARE
+    short of the servo's over the same segment (the motor could not keep the cycle's pace there: its steady
+    window alone does not say, a mission's window being one part of the cycle); "" where none does, and for a
+    run that is no mission. Segments the servo moves less than 0.05 m in (a stop, a steer in place) are not read."""
+    out = pd.Series("", index=res.index, dtype=object)
+    for seg in mission_segments(res) if len(mission_segments(servo)) else []:
+        want, got = servo[f"{seg}_distance"].to_numpy(float), res[f"{seg}_distance"].to_numpy(float)
+        short = (want > 0.05) & (got < (1 - SHORT_SHARE) * want) & (out == "").to_numpy()
+        out[short] = seg
+    return out
+
+
 def _in_loop_reasons(
     res: pd.DataFrame,
     motor: Any,
@@ -629,10 +647,12 @@ def _in_loop_reasons(
     limited: float,
     duty: float = 1.0,
     speed: Any = None,
+    behind: Any = False,
 ) -> pd.DataFrame:
     """Per variant of an in-the-loop result, each REASONS entry for its drives (True = fails); `speed`: the
-    servo's mean wheel speed per variant (rad/s; default: the loop's own)."""
-    short = res["motor_status"].isin(["short", "stalled"]).to_numpy()
+    servo's mean wheel speed per variant (rad/s; default: the loop's own); `behind`: short of the servo's pace in
+    a mission's segment (`segment_shortfall`), counted as short as the steady window's shortfall is."""
+    short = res["motor_status"].isin(["short", "stalled"]).to_numpy() | np.asarray(behind, bool)
     v_share = res[[f"{m}_at_voltage_share" for m in WHEELS]].max(axis=1).to_numpy()
     i_share = res[[f"{m}_at_current_share" for m in WHEELS]].max(axis=1).to_numpy()
     at_v, at_i = v_share > limited, i_share > limited

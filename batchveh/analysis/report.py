@@ -107,7 +107,8 @@ def verdict_table(s: Sizing) -> pd.DataFrame:
         if name in loop.index:
             q = loop.loc[name]
             row["in the loop"] = f"{q['coverage']:.1%}"
-            row["loop misses"] = _counts(q, IN_LOOP_REASONS)
+            first = q.get("limiting") or ""
+            row["loop misses"] = _counts(q, IN_LOOP_REASONS) + (f"; first: {first}" if first else "")
             row["steering misses (not counted)"] = str(int(q.get("steer_misses", 0)))
             row["not simulated"] = q["not_simulated_why"] if q["not_simulated"] else "0"
             if name == s.chosen:
