@@ -161,7 +161,8 @@ def candidates(screen_table: Any, best: str | None) -> list[str]:
 
 def trace(spec: Any, catalogue: str, drive: str, steer: str, values: dict[str, float], rise: float) -> Any:
     """One variant's time series on MuJoCo C with `drive` and `steer` as DC motors, its drive windings started
-    `rise` above ambient: each drive's winding temperature, and the bus power (W, the 8 motors) and energy (Wh)."""
+    `rise` above ambient: each drive's winding temperature, the bus power (W, the 8 motors) and energy (Wh), and
+    each step's most loaded drive: its torque at the wheel and its wheel's speed."""
     import numpy as np
     import pandas as pd
 
@@ -184,9 +185,19 @@ def trace(spec: Any, catalogue: str, drive: str, steer: str, values: dict[str, f
         if ctrl is None:
             continue
         current = d.actuator_force[lay.motor_act] / k_eta
-        rows.append([i * m.opt.timestep, *rec["T"][:4], float(np.sum(rec["v"] * current))])
+        torque = d.actuator_force[lay.motor_act[:4]] * p["_dc.N"][:4]  # at the wheel
+        speed = d.qvel[lay.motor_dof[:4]]
+        j = int(np.argmax(np.abs(torque)))
+        rows.append([i * m.opt.timestep, *rec["T"][:4], float(np.sum(rec["v"] * current)), torque[j], speed[j]])
     t = pd.DataFrame(
-        rows, columns=["time", *(f"drive_{c}_winding_temp" for c in ("lf", "rf", "lr", "rr")), "bus_power"]
+        rows,
+        columns=[
+            "time",
+            *(f"drive_{c}_winding_temp" for c in ("lf", "rf", "lr", "rr")),
+            "bus_power",
+            "drive_torque",  # the drive with the largest |torque| this step, at the wheel (N m)
+            "drive_speed",  # that wheel's speed (rad/s)
+        ],
     )
     t["bus_energy_wh"] = np.cumsum(t["bus_power"]) * m.opt.timestep / 3600.0
     return t

@@ -549,7 +549,12 @@ def in_loop(
         diverged = res["status_code"].to_numpy() == 1
         lost = not_simulated(res)
         why_lost = pd.Series(np.where(diverged, "diverged", res["motor_check"].to_numpy()))[lost].value_counts()
-        servo_speed = df["wheel_speed"].to_numpy(float) if "wheel_speed" in df else None
+        # the speed the servo's run asked, as the screen reads it: a duty cycle's peak, a straight line's mean
+        cycle = [f"mission_{m}_speed_peak" for m in WHEELS]
+        if cycle[0] in df:
+            servo_speed = df[cycle].abs().max(axis=1).to_numpy(float)
+        else:
+            servo_speed = df["wheel_speed"].to_numpy(float) if "wheel_speed" in df else None
         behind = segment_shortfall(df.reset_index(drop=True), res)
         why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE, duty, servo_speed, behind != "")
         where = _where(why, "window")

@@ -237,7 +237,20 @@ def torque_speed(ax, s: Sizing, name: str) -> None:
     rms_servo = demand[[f"{m}_rms" for m in WHEELS]].abs().max(axis=1).to_numpy()
     ax.scatter(demand["wheel_speed"], rms_servo, s=5, color="0.7", label="servo's RMS (the screen's demand)")
     speed = demand["wheel_speed"].to_numpy(float)
-    if d is not None:  # signed: a vehicle its motor cannot hold on a climb rolls back (negative speed)
+    from batchveh.analysis.motors import mission_segments
+
+    segs = mission_segments(d) if d is not None else []
+    if segs:  # a duty cycle: each segment's peak torque at its peak speed, one colour a segment
+        import matplotlib.pyplot as plt
+
+        colours, peaks = plt.get_cmap("tab10"), []
+        for j, g in enumerate(segs):
+            sp = d[[f"{g}_{m}_speed_peak" for m in WHEELS]].abs().max(axis=1).to_numpy()
+            pk = d[[f"{g}_{m}_peak_lp" for m in WHEELS]].abs().max(axis=1).to_numpy()
+            ax.scatter(sp, pk, s=7, color=colours(j % 10), label=f"{g}: low-pass peak at its peak speed")
+            peaks.append(pk)
+        peak, speed = np.concatenate(peaks), np.abs(d["wheel_speed"].to_numpy(float))
+    elif d is not None:  # signed: a vehicle its motor cannot hold on a climb rolls back (negative speed)
         speed = d["wheel_speed"].to_numpy(float)
         rms = d[[f"{m}_rms" for m in WHEELS]].abs().max(axis=1).to_numpy()
         peak = d[[f"{m}_peak_lp_all" for m in WHEELS]].abs().max(axis=1).to_numpy()
@@ -283,9 +296,27 @@ def misses(ax, s: Sizing, name: str) -> None:
 
 
 def worst_trace(axes, s: Sizing) -> None:
-    """The worst variant's winding temperatures, and its bus power and energy against the battery."""
+    """The worst variant's winding temperatures, its bus power and energy against the battery, and its most loaded
+    drive's torque and speed over the run against the motor's bound and no-load speed."""
     t = s.trace
-    ax, bx = axes
+    ax, bx, tx = axes
+    name = focus(s)
+    if name is not None and "drive_torque" in t:
+        c = s.catalogue[name].resolved()
+        bound = c["eta"] * c["N"] * c["K"] * c["i_max"]
+        tx.plot(t["time"], t["drive_torque"], lw=1, color="tab:blue", label="torque at the wheel (N m)")
+        if c["i_max"]:
+            tx.axhline(bound, color="tab:blue", ls="--", lw=1, label=f"current's bound {bound:.3g} N m")
+            tx.axhline(-bound, color="tab:blue", ls="--", lw=1)
+        tx.set_xlabel("time (s)")
+        tx.set_ylabel("drive torque at the wheel (N m)")
+        sx = tx.twinx()
+        sx.plot(t["time"], t["drive_speed"], lw=1, color="tab:red", label="wheel speed (rad/s)")
+        sx.axhline(c["V"] / (c["K"] * c["N"]), color="tab:red", ls="--", lw=1, label="no-load speed")
+        sx.set_ylabel("wheel speed (rad/s)")
+        tx.set_title(f"{name}: the most loaded drive, step by step", fontsize=9)
+        tx.legend(fontsize=7, loc="upper left")
+        sx.legend(fontsize=7, loc="lower right")
     for m in WHEELS:
         ax.plot(t["time"], t[f"{m}_winding_temp"], lw=1, label=m)
     c = s.catalogue[focus(s)].resolved() if focus(s) else None
@@ -334,7 +365,7 @@ def figures(folder: Path, s: Sizing) -> dict[str, str]:
             misses(ax, s, name)
         out["Where the misses are"] = _save(fig, folder, "misses.png")
     if s.trace is not None:
-        fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+        fig, axes = plt.subplots(1, 3, figsize=(16, 4.2))
         worst_trace(axes, s)
         out["The hottest variant: winding and bus"] = _save(fig, folder, "worst.png")
     return out
@@ -370,6 +401,45 @@ def catalogue_table(s: Sizing) -> pd.DataFrame:
                      "R_T (K/W)": c["R_T"], "tau_T (s)": c["t_T"], "T_max (C)": c["T_max"], "ratio": c["N"],
                      "eta": c["eta"], "rotor (kg m^2)": c["J"]})  # fmt: skip
     return pd.DataFrame(rows)
+
+
+def energy_line(s: Sizing) -> str:
+    """The bus energy of one run of the cycle on the chosen (or best) motor, median and worst over the variants,
+    and how many cycles one battery charge gives at the worst; a mission reads its whole cycle's."""
+    name = focus(s)
+    if name is None or name not in s.detail or s.battery is None:
+        return ""
+    d = s.detail[name]
+    col = "mission_bus_energy_wh" if "mission_bus_energy_wh" in d else "bus_energy_wh"
+    e = d[col].to_numpy(float)
+    worst = float(np.max(e))
+    cycles = s.battery.energy_wh / worst if worst > 0 else np.inf
+    return (
+        f"{name}: {np.median(e):.3g} Wh a cycle at the median, {worst:.3g} Wh at the worst variant (the bus, the "
+        f"eight motors, regeneration netted): {cycles:,.0f} cycles on one charge of the {s.battery.energy_wh:.0f} "
+        f"Wh battery at the worst."
+    )
+
+
+def steer_segments_line(s: Sizing) -> str:
+    """A mission's steering demand by segment: which segment sets the steering's low-pass peak and its RMS, in how
+    many variants, and the p99 of each, from the servo's run (the screen) and the chosen drive's run in the loop."""
+    from batchveh.analysis.motors import mission_segments
+
+    segs = mission_segments(s.servo)
+    if not segs:
+        return ""
+    steer = GROUPS["steer"]
+    parts = []
+    frames = [("screen", s.servo)] + ([("loop", s.detail[focus(s)])] if focus(s) in s.detail else [])
+    for label, df in frames:
+        for stat, suffix in (("peak", "peak_lp"), ("RMS", "rms")):
+            per = np.stack([df[[f"{g}_{m}_{suffix}" for m in steer]].abs().max(axis=1).to_numpy() for g in segs], 1)
+            top = pd.Series(np.array(segs)[np.argmax(per, axis=1)]).value_counts()
+            p99 = float(np.percentile(per.max(axis=1), 99))
+            where = f"{top.index[0]} in {int(top.iloc[0])} of {len(df)}"
+            parts.append(f"{label}: its {stat} set by {where} (p99 {p99:.3g} N m)")
+    return "The steering by segment: " + "; ".join(parts) + "."
 
 
 def headline(s: Sizing) -> str:
@@ -415,6 +485,7 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
         ("", "text", "The steering's criteria in the loop: " + "; ".join(
             f"{k}: {v}" for k, v in STEER_TEXT.items()) + f". It must hold on {s.share:.0%} of the variants "
             "simulated, or the next larger steering motor runs with the same drive."),
+        *([("", "text", steer_segments_line(s))] if steer_segments_line(s) else []),
         ("Screen against loop, reason by reason", "table", reason_table(s)),
         ("", "text", "The screen read " + (
             "the steady window" if s.span is None else "the whole duty cycle (its RMS and heat), each segment also "
@@ -427,6 +498,9 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
     ]  # fmt: skip
     for title, path in figs.items():
         out.append((title, "figure", path))
+    energy = energy_line(s)
+    if energy:
+        out.append(("Energy per cycle", "text", energy))
     out.append(("Catalogue entries", "table", catalogue_table(s)))
     out.append(("Inputs", "code", s.spec_text))
     meta = {**s.versions, **{f"wall {k} (s)": f"{v:.1f}" for k, v in s.wall_s.items()}}
