@@ -317,6 +317,7 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
         not_run=not_run(table, runs, list(loop["motor"]), chosen, best),
         duty=spec.duty,
         span=span,
+        steer_given=args.steer is not None,
         catalogue=cat,
         battery=battery_of(args.catalogue),
         trace=series,

@@ -66,6 +66,7 @@ class Sizing:
     duty: float = 1.0  # the spec's duty: the share of the time the run repeats
     worst_note: str = ""  # whether the motor covers the hottest variant, and why not
     span: str | None = None  # the span the screen read: None the steady window, 'mission' the whole cycle
+    steer_given: bool = False  # the steering motor named with --steer (never walked up)
 
 
 def focus(s: Sizing) -> str | None:
@@ -151,7 +152,8 @@ def steer_table(s: Sizing) -> pd.DataFrame:
             row["verdict"] = (
                 "chosen"
                 if name == s.steer and held
-                else "kept (given), fails: " + row["loop misses"]
+                else ("kept (given with --steer), fails: " if s.steer_given else "kept (the largest), fails: ")
+                + row["loop misses"]
                 if name == s.steer
                 else f"fails: covers {last['steer_coverage']:.1%} < {s.share:.0%}; {row['loop misses']}"
             )
