@@ -162,7 +162,7 @@ def candidates(screen_table: Any, best: str | None) -> list[str]:
 def trace(spec: Any, catalogue: str, drive: str, steer: str, values: dict[str, float], rise: float) -> Any:
     """One variant's time series on MuJoCo C with `drive` and `steer` as DC motors, its drive windings started
     `rise` above ambient: each drive's winding temperature, the bus power (W, the 8 motors) and energy (Wh), and
-    each step's most loaded drive: its torque at the wheel and its wheel's speed."""
+    each drive's torque at the wheel and its wheel's speed."""
     import numpy as np
     import pandas as pd
 
@@ -187,16 +187,16 @@ def trace(spec: Any, catalogue: str, drive: str, steer: str, values: dict[str, f
         current = d.actuator_force[lay.motor_act] / k_eta
         torque = d.actuator_force[lay.motor_act[:4]] * p["_dc.N"][:4]  # at the wheel
         speed = d.qvel[lay.motor_dof[:4]]
-        j = int(np.argmax(np.abs(torque)))
-        rows.append([i * m.opt.timestep, *rec["T"][:4], float(np.sum(rec["v"] * current)), torque[j], speed[j]])
+        rows.append([i * m.opt.timestep, *rec["T"][:4], float(np.sum(rec["v"] * current)), *torque, *speed])
+    wheels = ("lf", "rf", "lr", "rr")
     t = pd.DataFrame(
         rows,
         columns=[
             "time",
-            *(f"drive_{c}_winding_temp" for c in ("lf", "rf", "lr", "rr")),
+            *(f"drive_{c}_winding_temp" for c in wheels),
             "bus_power",
-            "drive_torque",  # the drive with the largest |torque| this step, at the wheel (N m)
-            "drive_speed",  # that wheel's speed (rad/s)
+            *(f"drive_{c}_torque" for c in wheels),  # at the wheel (N m)
+            *(f"drive_{c}_speed" for c in wheels),  # the wheel's (rad/s)
         ],
     )
     t["bus_energy_wh"] = np.cumsum(t["bus_power"]) * m.opt.timestep / 3600.0

@@ -273,10 +273,26 @@ def torque_speed(ax, s: Sizing, name: str) -> None:
     ax.legend(fontsize=7, loc="upper right")
 
 
+def telling(d: pd.DataFrame, params: list[str], missed: np.ndarray) -> list[str]:
+    """The swept parameters, those that tell missed from covered variants best first: the difference of their
+    means over the parameter's spread (the swept order where nothing is missed)."""
+    if not missed.any() or missed.all():
+        return list(params)
+
+    def score(k: str) -> float:
+        v = d[k].to_numpy(float)
+        return abs(v[missed].mean() - v[~missed].mean()) / (v.std() or 1.0)
+
+    return sorted(params, key=score, reverse=True)
+
+
 def misses(ax, s: Sizing, name: str) -> None:
-    """Where the variants `name` misses in the loop sit in the first two swept parameters, by reason."""
+    """Where the variants `name` misses in the loop sit in the two swept parameters that tell them apart best,
+    by reason."""
     d = s.detail[name]
-    x, y = s.params[0], (s.params[1] if len(s.params) > 1 else None)
+    failed = d[[f"fails_{r}" for r in IN_LOOP_REASONS]].to_numpy(bool).any(axis=1)
+    order = telling(d, [k for k in s.params if np.issubdtype(d[k].dtype, np.number)], failed)
+    x, y = order[0], (order[1] if len(order) > 1 else None)
     yv = d[y].to_numpy(float) if y else np.zeros(len(d))
     lost = not_simulated(d)
     why = d[[f"fails_{r}" for r in IN_LOOP_REASONS]].to_numpy(bool)
@@ -303,20 +319,21 @@ def worst_trace(axes, s: Sizing) -> None:
     t = s.trace
     ax, bx, tx = axes
     name = focus(s)
-    if name is not None and "drive_torque" in t:
+    if name is not None and "drive_lf_torque" in t:
         c = s.catalogue[name].resolved()
         bound = c["eta"] * c["N"] * c["K"] * c["i_max"]
-        tx.plot(t["time"], t["drive_torque"], lw=1, color="tab:blue", label="torque at the wheel (N m)")
+        m = max(WHEELS, key=lambda w: float(t[f"{w}_torque"].abs().max()))  # the most loaded drive of the run
+        tx.plot(t["time"], t[f"{m}_torque"], lw=1, color="tab:blue", label=f"{m}: torque at the wheel (N m)")
         if c["i_max"]:
             tx.axhline(bound, color="tab:blue", ls="--", lw=1, label=f"current's bound {bound:.3g} N m")
             tx.axhline(-bound, color="tab:blue", ls="--", lw=1)
         tx.set_xlabel("time (s)")
         tx.set_ylabel("drive torque at the wheel (N m)")
         sx = tx.twinx()
-        sx.plot(t["time"], t["drive_speed"], lw=1, color="tab:red", label="wheel speed (rad/s)")
+        sx.plot(t["time"], t[f"{m}_speed"], lw=1, color="tab:red", label=f"{m}: wheel speed (rad/s)")
         sx.axhline(c["V"] / (c["K"] * c["N"]), color="tab:red", ls="--", lw=1, label="no-load speed")
         sx.set_ylabel("wheel speed (rad/s)")
-        tx.set_title(f"{name}: the most loaded drive, step by step", fontsize=9)
+        tx.set_title(f"{name}: the run's most loaded drive, step by step", fontsize=9)
         tx.legend(fontsize=7, loc="upper left")
         sx.legend(fontsize=7, loc="lower right")
     for m in WHEELS:
