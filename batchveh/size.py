@@ -249,6 +249,11 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
     params = list(spec.params)
     ramp = ramp_of(spec, df)
     span = args.span or ("mission" if spec.scenario.kind == "mission" else None)  # a duty cycle: the whole of it
+    if span is not None and f"{span}_drive_lf_rms" not in df:
+        from batchveh.analysis.motors import mission_segments
+
+        allowed = ", ".join(["mission", *mission_segments(df)]) if "mission_drive_lf_rms" in df else "none"
+        raise ConfigError(f"--span: {span!r} is not a span of {args.spec}'s results; allowed: {allowed}")
     common = {"share": args.share, "params": params, "duty": spec.duty, "span": span}
     best, table, _ = screen(df, cat, armature=armature, accel=accel, ramp=ramp, **common)
     _, steer_table, _ = screen(df, cat, group="steer", **common)

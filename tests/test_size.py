@@ -132,6 +132,15 @@ def test_a_missing_or_empty_catalogue_is_one_line(tmp_path, capsys):
     assert rc == EXIT_INPUT and "bad.yaml: duty: 1.5" in err and "<= 1" in err and "\n" not in err
 
 
+def test_a_span_a_straight_line_has_not_is_one_line(sized, capsys):
+    """--span on a straight line's results (the servo sweep the fixture ran): no such span, one line, exit 2."""
+    out, _, _ = sized
+    rc = main([str(SPEC), "--catalogue", str(CATALOGUE), "--out", str(out), "--overwrite", "--quiet",
+               "--limit", str(LIMIT), "--span", "seg2_climb"])  # fmt: skip
+    err = capsys.readouterr().err.strip()
+    assert rc == EXIT_INPUT and "--span: 'seg2_climb'" in err and "allowed: none" in err and "\n" not in err
+
+
 def test_the_dry_run_estimates_every_phase(capsys):
     assert main([str(SPEC), "--catalogue", str(CATALOGUE), "--dry-run"]) == EXIT_OK
     line = capsys.readouterr().out.strip()
