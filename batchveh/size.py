@@ -8,7 +8,8 @@ Three phases, one progress bar:
 1. the sweep with the ideal servo (the demand), in OUT/servo: reused where it is there and was made from the
    same spec (the sweep's resume), else run;
 2. the screen: every catalogue motor against that demand (`batchveh.analysis.motors.screen`), for the drives
-   and, unless --steer names one, for the steering;
+   and, unless --steer names one, for the steering; a straight line on its steady window, a mission on its whole
+   cycle and each segment (--span picks one segment);
 3. in the loop (`in_loop`): the screen's choice and the next smaller motor, then larger ones, smallest first, as
    DC motors driven by batchveh's drive, from the hot steady state of the run repeated (the spec's `duty`: the
    share of the time it runs, 1 for back to back), until one covers --share of the variants it could simulate.

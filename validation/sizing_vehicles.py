@@ -9,7 +9,9 @@ The vehicles (sweeps/):
 - delivery_robot_friction: sweeps/delivery_robot.yaml (wheels 0.05 m outboard of the axes) with friction 0.4-0.9
   swept too (the spec is written into --out);
 - robot_30kg, warehouse_agv (180-300 kg), seed_sizing (the seed's vehicle, 300 LHS of benchmarks/slope_100k.yaml's
-  ranges), rover_1t.
+  ranges), rover_1t;
+- and with `--only mission robot_mission agv_mission --json validation/results/sizing_missions.json`, issue 54's
+  duty cycles (sweeps/mission.yaml, sweeps/robot_mission.yaml, sweeps/agv_mission.yaml).
 
 Per vehicle: the command's wall and last line; the chosen drive and steering motor; for the chosen (or the best) drive
 its screen and loop coverage and their difference in points; the share of variants not simulated; from
@@ -38,6 +40,7 @@ ROOT = Path(__file__).resolve().parent.parent
 CATALOGUE = ROOT / "notebooks" / "motors.yaml"
 JSON = ROOT / "validation" / "results" / "sizing_vehicles.json"
 VEHICLES = ("sidewalk_robot", "delivery_robot_friction", "robot_30kg", "warehouse_agv", "seed_sizing", "rover_1t")
+MISSIONS = ("mission", "robot_mission", "agv_mission")  # issue 54's duty cycles: --only them --json ...missions.json
 NOT_SIMULATED_MAX = 0.005  # the issue's bound: share of the variants
 AGREE_POINTS = 2.0  # the chosen motor's screen and loop coverage, points apart
 
@@ -109,7 +112,8 @@ def size(name: str, out: Path) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--out", default=str(ROOT / "results" / "sizing_vehicles"))
-    ap.add_argument("--only", nargs="*", choices=VEHICLES)
+    ap.add_argument("--only", nargs="*", choices=VEHICLES + MISSIONS)
+    ap.add_argument("--json", help="write the JSON there (default: validation/results/sizing_vehicles.json for all)")
     args = ap.parse_args()
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -121,15 +125,16 @@ def main() -> None:
         print(f"{name:24} {str(r['chosen']):34} {r['screen_coverage']:7.1%} {r['loop_coverage']:7.1%} "
               f"{r['points_apart']:6.2f} {r['not_simulated_share']:7.2%} {e['torque_ratio_max']:6.3f} "
               f"{e['steer_err_deg_p99']:8.3f} {r['wall_s']:6.1f}")  # fmt: skip
-    if args.only:
+    if args.only and not args.json:
         return
-    JSON.write_text(
+    Path(args.json or JSON).write_text(
         json.dumps(
             {
                 "what": __doc__.split("\n\n")[0],
                 "date": str(date.today()),
-                "commit": subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True)
-                .stdout.strip(),
+                "commit": subprocess.run(
+                    ["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True
+                ).stdout.strip(),
                 "machine": f"{platform.machine()}, {os.cpu_count()} CPUs (this project's 2-core machine)",
                 "bounds": {"not_simulated_share_max": NOT_SIMULATED_MAX, "agree_points": AGREE_POINTS},
                 "vehicles": got,
