@@ -71,6 +71,13 @@ def battery_of(path: str) -> Any:
         return None
 
 
+def _column(df: Any, name: str, default: float) -> Any:
+    """A swept parameter's values per row of `df`, or its fixed value where it was not swept."""
+    import numpy as np
+
+    return df[name].to_numpy(float) if name in df else np.full(len(df), float(default))
+
+
 def wheel_accel(spec: Any, df: Any) -> Any:
     """Each variant's imposed wheel acceleration over its speed ramp (rad/s^2), for the screen's rotor inertia:
     speed / (radius x ramp time), where the scenario has both; else 0."""
@@ -79,12 +86,8 @@ def wheel_accel(spec: Any, df: Any) -> Any:
     sc = spec.scenario
     if not hasattr(sc, "speed_kmh") or not getattr(sc, "ramp_time", 0):
         return 0.0
-
-    def col(name: str, default: float) -> Any:
-        return df[name].to_numpy(float) if name in df else np.full(len(df), default)
-
-    ramp = np.maximum(col("ramp_time", sc.ramp_time), 1e-9)
-    return col("speed_kmh", sc.speed_kmh) / 3.6 / col("wheel.radius", spec.vehicle.wheel.radius) / ramp
+    ramp = np.maximum(_column(df, "ramp_time", sc.ramp_time), 1e-9)
+    return _column(df, "speed_kmh", sc.speed_kmh) / 3.6 / _column(df, "wheel.radius", spec.vehicle.wheel.radius) / ramp
 
 
 def ramp_of(spec: Any, df: Any) -> dict[str, Any] | None:
@@ -101,7 +104,7 @@ def ramp_of(spec: Any, df: Any) -> dict[str, Any] | None:
     v = spec.vehicle
 
     def col(name: str, default: float) -> Any:
-        return df[name].to_numpy(float) if name in df else np.full(len(df), float(default))
+        return _column(df, name, default)
 
     radius = col("wheel.radius", v.wheel.radius)
     wheel = col("wheel.mass", v.wheel.mass)
@@ -214,7 +217,7 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
 
     import batchveh
     from batchveh.analysis import report
-    from batchveh.analysis.motors import IN_LOOP_REASONS, STEER_REASONS, in_loop, screen
+    from batchveh.analysis.motors import IN_LOOP_REASONS, STEER_REASONS, best_in_loop, in_loop, screen
     from batchveh.model.motors import pick
     from batchveh.sweep import count_variants, run_sweep
     from batchveh.sweeping.results import load
@@ -293,7 +296,7 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
     import pandas as pd
 
     loop = pd.concat(rows, ignore_index=True)
-    hottest = chosen or str(loop.sort_values("coverage", kind="stable")["motor"].iloc[-1])
+    hottest = chosen or best_in_loop(loop)
     d = detail[hottest]
     temps = d[[f"drive_{c}_winding_temp_peak" for c in ("lf", "rf", "lr", "rr")]].max(axis=1).to_numpy()
     worst = int(np.argmax(temps))

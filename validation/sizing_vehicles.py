@@ -36,6 +36,8 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from batchveh.analysis.motors import best_in_loop
+
 ROOT = Path(__file__).resolve().parent.parent
 CATALOGUE = ROOT / "notebooks" / "motors.yaml"
 JSON = ROOT / "validation" / "results" / "sizing_vehicles.json"
@@ -74,7 +76,7 @@ def size(name: str, out: Path) -> dict:
     summary = json.loads((folder / "sizing.json").read_text())
     loop = pd.DataFrame(summary["loop"])
     screen = pd.DataFrame(summary["screen"]).set_index("motor")
-    focus = summary["chosen"] or str(loop.sort_values("coverage", kind="stable")["motor"].iloc[-1])
+    focus = summary["chosen"] or best_in_loop(loop)
     row = loop.set_index("motor").loc[focus]
     v = pd.read_parquet(folder / "verdicts.parquet")
     err = v["steer_track_err_deg"].to_numpy(float)

@@ -72,6 +72,17 @@ REASON_TEXT = {
 }
 
 
+def bound_at_wheel(c: dict[str, float], none: float = np.inf) -> float:
+    """The most the drive gives at the wheel, eta N K i_max (N m), from a motor's `resolved()` constants; `none`
+    where it has no current limit."""
+    return c["eta"] * c["N"] * c["K"] * c["i_max"] if c["i_max"] > 0 else none
+
+
+def best_in_loop(table: pd.DataFrame) -> str | None:
+    """The motor of an `in_loop` table with the highest coverage (the last run of equals); None for no rows."""
+    return str(table.sort_values("coverage", kind="stable")["motor"].iloc[-1]) if len(table) else None
+
+
 def demand(df: pd.DataFrame, group: str = "drive", span: str | None = None) -> pd.DataFrame:
     """Each variant's demand on the worst of the group's four motors, at the wheel: RMS and peak torque
     (N m), and speed (rad/s): the steady window's RMS, the whole run's low-pass peak and the mean
@@ -205,7 +216,7 @@ def screen_one(
 
     c = motor.resolved()
     n, eta, k, r = c["N"], c["eta"], c["K"], c["R"]
-    bound = eta * n * k * c["i_max"] if c["i_max"] > 0 else np.inf  # the most the drive gives at the wheel
+    bound = bound_at_wheel(c)
     peak = need["peak"] + np.maximum(c["J"] * n * n - armature, 0.0) * np.abs(accel)
     window = need["peak_window"] if "peak_window" in need else need["peak"]
     rms = need["rms"]
@@ -301,7 +312,7 @@ def screen(
         row = {
             "motor": name,
             "gear_ratio": c["N"],
-            "continuous_torque_at_wheel": c["eta"] * c["N"] * c["K"] * c["i_max"] if c["i_max"] else np.nan,
+            "continuous_torque_at_wheel": bound_at_wheel(c, np.nan),
             "coverage": float(res["fits"].mean()),
             **{f"fails_{why}": int(res[why].sum()) for why in REASONS},
             "limiting": _limiting(where[~res["fits"]]),
@@ -323,11 +334,14 @@ def mission_segments(df: pd.DataFrame) -> list[str]:
     return sorted(spans, key=lambda x: int(x[3:].split("_")[0]))
 
 
-def _where(res: pd.DataFrame, span: str) -> pd.Series:
-    """Per variant, the first reason it fails for, named with its span ("window: voltage"); "" where it fits."""
+def _where(res: pd.DataFrame, span: str | pd.Series) -> pd.Series:
+    """Per variant, the first reason it fails for, named with its span ("window: voltage"; `span` one name, or
+    one per variant); "" where it fits."""
+    spans = pd.Series(span, index=res.index, dtype=object)
     out = pd.Series("", index=res.index, dtype=object)
     for why in REASONS:
-        out[(out == "") & res[why].astype(bool)] = f"{span}: {why}"
+        hit = (out == "") & res[why].astype(bool)
+        out[hit] = spans[hit] + f": {why}"
     return out
 
 
@@ -337,8 +351,7 @@ def _segments(df: pd.DataFrame, group: str, segments: list[str], motor: Any, res
     not an average; and the gearhead's intermittent rating), ORed into `res` in place; the cycle's RMS and heat
     stay the whole mission's. Per variant, the first segment and reason it fails for ("seg3_climb: voltage at
     16.5 rad/s"), or the cycle's ("mission: thermal"); "" where it fits."""
-    c = motor.resolved()
-    bound = c["eta"] * c["N"] * c["K"] * c["i_max"] if c["i_max"] > 0 else np.inf
+    bound = bound_at_wheel(motor.resolved())
     where = pd.Series("", index=res.index, dtype=object)
     for seg in segments:
         need = demand(df, group, seg)
@@ -387,7 +400,8 @@ DIFFER = {
     "rms": "screen: the servo's torque over eta N K, the four wheels sharing up to the bound; loop: the current "
     "the motor carried, which the drive clips at i_max, so a motor short of it falls short at its current limit "
     "there (counted as peak)",
-    "thermal": "screen: the steady window's RMS held for ever; loop: the whole run (its ramp too), repeated",
+    "thermal": "screen: the steady window's (a duty cycle's: the cycle's) RMS held for ever; loop: the whole run "
+    "(its ramp too), repeated",
     "voltage": "screen: the window's peak torque (at most the bound) at the mean speed; loop: short of speed at "
     "the line",
     "peak": "screen: the window's low-pass peak above the current's bound, or the ramp, at the bound's "
@@ -557,8 +571,7 @@ def in_loop(
             servo_speed = df["wheel_speed"].to_numpy(float) if "wheel_speed" in df else None
         behind = segment_shortfall(df.reset_index(drop=True), res)
         why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE, duty, servo_speed, behind != "")
-        where = _where(why, "window")
-        where[behind != ""] = behind[behind != ""] + ": " + where[behind != ""].str.split(": ").str[-1]
+        where = _where(why, behind.where(behind != "", "window"))  # a mission's segment it fell behind in
         why.loc[lost, :] = False
         steer_why = steer_reasons(res, cat[steer], cs, duty)
         steer_why.loc[lost, :] = False
@@ -571,7 +584,7 @@ def in_loop(
             {
                 "motor": name,
                 "gear_ratio": c["N"],
-                "continuous_torque_at_wheel": c["eta"] * c["N"] * c["K"] * c["i_max"] if c["i_max"] else np.nan,
+                "continuous_torque_at_wheel": bound_at_wheel(c, np.nan),
                 "coverage": float(fits[judged].sum() / counted),
                 "not_simulated": int(lost.sum()),
                 "not_simulated_why": ", ".join(f"{v} {k}" for k, v in why_lost.items()),
@@ -637,7 +650,7 @@ def segment_shortfall(servo: pd.DataFrame, res: pd.DataFrame) -> pd.Series:
     window alone does not say, a mission's window being one part of the cycle); "" where none does, and for a
     run that is no mission. Segments the servo moves less than 0.05 m in (a stop, a steer in place) are not read."""
     out = pd.Series("", index=res.index, dtype=object)
-    for seg in mission_segments(res) if len(mission_segments(servo)) else []:
+    for seg in mission_segments(res) if mission_segments(servo) else []:
         want, got = servo[f"{seg}_distance"].to_numpy(float), res[f"{seg}_distance"].to_numpy(float)
         short = (want > 0.05) & (got < (1 - SHORT_SHARE) * want) & (out == "").to_numpy()
         out[short] = seg
@@ -661,11 +674,7 @@ def _in_loop_reasons(
     v_share = res[[f"{m}_at_voltage_share" for m in WHEELS]].max(axis=1).to_numpy()
     i_share = res[[f"{m}_at_current_share" for m in WHEELS]].max(axis=1).to_numpy()
     at_v, at_i = v_share > limited, i_share > limited
-    out = pd.DataFrame(index=res.index)
-    cycle = "mission_" if "mission_drive_lf_current_rms" in res else ""  # a duty cycle's RMS is the whole cycle's
-    i_rms = np.sqrt(duty) * res[[f"{cycle}{m}_current_rms" for m in WHEELS]].max(axis=1).to_numpy()
-    out["rms"] = i_rms > c["i_max"] if c["i_max"] > 0 else False
-    out["thermal"] = res[[f"{m}_winding_temp_peak" for m in WHEELS]].max(axis=1).to_numpy() > c["T_max"]
+    out = _rms_and_heat(res, WHEELS, c, duty)
     out["voltage"] = short & at_v & (v_share > i_share)  # the limit it spent longer at
     out["peak"] = short & at_i & (i_share >= v_share)
     wanted = np.abs(np.asarray(res["wheel_speed"] if speed is None else speed, float))
@@ -680,6 +689,17 @@ def _in_loop_reasons(
     out["energy"] = energy
     out["tracking"] = short & ~at_v & ~at_i
     return out[list(REASONS)]
+
+
+def _rms_and_heat(res: pd.DataFrame, names: tuple[str, ...], c: dict, duty: float) -> pd.DataFrame:
+    """Per variant, `rms` (the motors' largest RMS current at the duty above i_max: a duty cycle's over the whole
+    cycle, else the steady window's) and `thermal` (a winding's peak above its maximum), for the motors `names`."""
+    cycle = "mission_" if f"mission_{names[0]}_current_rms" in res else ""
+    out = pd.DataFrame(index=res.index)
+    i_rms = np.sqrt(duty) * res[[f"{cycle}{m}_current_rms" for m in names]].max(axis=1).to_numpy()
+    out["rms"] = i_rms > c["i_max"] if c["i_max"] > 0 else False
+    out["thermal"] = res[[f"{m}_winding_temp_peak" for m in names]].max(axis=1).to_numpy() > c["T_max"]
+    return out
 
 
 def _gear_torque(res: pd.DataFrame, names: tuple[str, ...], motor: Any) -> np.ndarray:
@@ -697,10 +717,7 @@ def _gear_torque(res: pd.DataFrame, names: tuple[str, ...], motor: Any) -> np.nd
 def steer_reasons(res: pd.DataFrame, motor: Any, c: dict, duty: float = 1.0) -> pd.DataFrame:
     """Per variant of an in-the-loop result, each STEER_REASONS entry for its steering motors (True = fails)."""
     names = GROUPS["steer"]
-    out = pd.DataFrame(index=res.index)
-    i_rms = np.sqrt(duty) * res[[f"{m}_current_rms" for m in names]].max(axis=1).to_numpy()
-    out["rms"] = i_rms > c["i_max"] if c["i_max"] > 0 else False
-    out["thermal"] = res[[f"{m}_winding_temp_peak" for m in names]].max(axis=1).to_numpy() > c["T_max"]
+    out = _rms_and_heat(res, names, c, duty)
     out["voltage"] = res[[f"{m}_at_voltage_share" for m in names]].max(axis=1).to_numpy() > STEER_LIMIT_SHARE
     out["peak"] = res[[f"{m}_at_current_share" for m in names]].max(axis=1).to_numpy() > STEER_LIMIT_SHARE
     out["gear_torque"] = _gear_torque(res, names, motor)

@@ -34,6 +34,8 @@ from batchveh.analysis.motors import (
     STEER_REASONS,
     STEER_TEXT,
     WHEELS,
+    best_in_loop,
+    bound_at_wheel,
     not_simulated,
 )
 
@@ -71,11 +73,7 @@ class Sizing:
 
 def focus(s: Sizing) -> str | None:
     """The motor the figures show: the chosen one, else the best of those run in the loop (its coverage)."""
-    if s.chosen is not None:
-        return s.chosen
-    if not len(s.loop):
-        return None
-    return str(s.loop.sort_values("coverage", kind="stable")["motor"].iloc[-1])
+    return s.chosen if s.chosen is not None else best_in_loop(s.loop)
 
 
 def smaller(s: Sizing) -> str | None:
@@ -90,6 +88,19 @@ def smaller(s: Sizing) -> str | None:
     return (in_loop or below or [None])[-1]
 
 
+def _screen_cells(r: Any, torque: str) -> dict[str, Any]:
+    """A screen table row's cells for a verdict table: the motor, its ratio, its continuous torque at the wheel
+    (column `torque`), its screen coverage and counted reasons with the commonest first one."""
+    first = f"; first: {r['limiting']}" if r.get("limiting") else ""
+    return {
+        "motor": r["motor"],
+        "ratio": f"{r['gear_ratio']:g}:1",
+        torque: round(float(r["continuous_torque_at_wheel"]), 3),
+        "screen": f"{r['coverage']:.1%}",
+        "screen misses": _counts(r, REASONS) + first,
+    }
+
+
 def verdict_table(s: Sizing) -> pd.DataFrame:
     """One row per catalogue motor: its continuous torque at the wheel, the screen's coverage and counted
     reasons, and where it ran in the loop, the loop's coverage, counted reasons and the variants that could not
@@ -98,13 +109,7 @@ def verdict_table(s: Sizing) -> pd.DataFrame:
     loop = s.loop.set_index("motor") if len(s.loop) else pd.DataFrame()
     for _, r in s.screen.iterrows():
         name = r["motor"]
-        row = {
-            "motor": name,
-            "ratio": f"{r['gear_ratio']:g}:1",
-            "continuous at wheel (N m)": round(float(r["continuous_torque_at_wheel"]), 3),
-            "screen": f"{r['coverage']:.1%}",
-            "screen misses": _counts(r, REASONS) + (f"; first: {r['limiting']}" if r.get("limiting") else ""),
-        }
+        row = _screen_cells(r, "continuous at wheel (N m)")
         if name in loop.index:
             q = loop.loc[name]
             row["in the loop"] = f"{q['coverage']:.1%}"
@@ -126,7 +131,7 @@ def verdict_table(s: Sizing) -> pd.DataFrame:
 
 def steer_table(s: Sizing) -> pd.DataFrame:
     """One row per catalogue motor as the steering: the screen of the steering's demand (its RMS and low-pass
-    peak, with the segment-free straight-line window), and where it ran in the loop, with which drive, its
+    peak over the whole run, or a duty cycle's), and where it ran in the loop, with which drive, its
     coverage on its own criteria and its reasons; the verdict."""
     if s.steer_screen is None:
         return pd.DataFrame()
@@ -134,13 +139,7 @@ def steer_table(s: Sizing) -> pd.DataFrame:
     rows = []
     for _, r in s.steer_screen.iterrows():
         name = r["motor"]
-        row = {
-            "motor": name,
-            "ratio": f"{r['gear_ratio']:g}:1",
-            "continuous at the hinge (N m)": round(float(r["continuous_torque_at_wheel"]), 3),
-            "screen": f"{r['coverage']:.1%}",
-            "screen misses": _counts(r, REASONS) + (f"; first: {r['limiting']}" if r.get("limiting") else ""),
-        }
+        row = _screen_cells(r, "continuous at the hinge (N m)")
         mine = runs[runs["steer"] == name] if len(runs) else runs
         if len(mine):
             last = mine.iloc[-1]
@@ -321,7 +320,7 @@ def worst_trace(axes, s: Sizing) -> None:
     name = focus(s)
     if name is not None and "drive_lf_torque" in t:
         c = s.catalogue[name].resolved()
-        bound = c["eta"] * c["N"] * c["K"] * c["i_max"]
+        bound = bound_at_wheel(c)
         m = max(WHEELS, key=lambda w: float(t[f"{w}_torque"].abs().max()))  # the most loaded drive of the run
         tx.plot(t["time"], t[f"{m}_torque"], lw=1, color="tab:blue", label=f"{m}: torque at the wheel (N m)")
         if c["i_max"]:
@@ -486,6 +485,7 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
     """The page as (heading, kind, content): kind 'text', 'table' (a DataFrame), 'figure' (a path), 'code'."""
     reasons = "; ".join(f"{k.replace('_', ' ')}: {v}" for k, v in IN_LOOP_TEXT.items())
     screen = "; ".join(f"{k.replace('_', ' ')}: {v}" for k, v in REASON_TEXT.items())
+    by_segment = steer_segments_line(s)
     out: list[tuple[str, str, Any]] = [
         ("", "text", headline(s)),
         (
@@ -504,7 +504,7 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
         ("", "text", "The steering's criteria in the loop: " + "; ".join(
             f"{k}: {v}" for k, v in STEER_TEXT.items()) + f". It must hold on {s.share:.0%} of the variants "
             "simulated, or the next larger steering motor runs with the same drive."),
-        *([("", "text", steer_segments_line(s))] if steer_segments_line(s) else []),
+        *([("", "text", by_segment)] if by_segment else []),
         ("Screen against loop, reason by reason", "table", reason_table(s)),
         ("", "text", "The screen read " + (
             "the steady window" if s.span is None else "the whole duty cycle (its RMS and heat), each segment also "

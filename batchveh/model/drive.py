@@ -37,9 +37,9 @@ wheel). Steering: a triple pole at w on the hub against the tyre's moment, kv = 
 ki = I w^3, with kv within the bound; k_tyre is the steering stiffness the tyre takes away where its contact
 leads the steering axis (`tyre_moment_stiffness`: a contact a distance a ahead of the axis puts the lateral force
 C_s N delta at a, turning the wheel further, -a C_s N per rad; docs/motors.md, "The steering loop"). Without it a
-steering motor whose kp the time step caps (76 N m/rad on the 60 kg robot's 1.9 N m motor) let the rear wheels
-(contact 0.05 m ahead of the axis: -170 to -207 N m/rad) steer off. kp stays within KP_SHARE of the step's own
-bound, 4 I / dt^2 less the damping's share (semi-implicit Euler on I, kp, kv).
+steering motor whose kp the time step caps (98.7 N m/rad on sweeps/sidewalk_robot.yaml's 1.9 N m motor) let the
+rear wheels (contact 0.05 m ahead of the axis: -133 to -177 N m/rad at their static loads) steer off. kp stays
+within KP_SHARE of the step's own bound, 4 I / dt^2 less the damping's share (semi-implicit Euler on I, kp, kv).
 Each gain set by the user (`motors.dc_drive_kp`, ...) replaces the derived one.
 """
 
