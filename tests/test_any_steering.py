@@ -232,5 +232,5 @@ def test_a_steering_miss_is_the_steerings_never_the_drives():
     row = table.iloc[0]
     assert row.steer_misses == 2 and row.steer_fails_lost == 2, row.to_dict()
     assert row.steer_coverage == pytest.approx(1 / 3)
-    assert row.coverage == 1.0 and best == "faulhaber-3863H048CR_NPT015-i28"
+    assert row.coverage == 1.0 and row.judged == 1 and best == "faulhaber-3863H048CR_NPT015-i28"
     assert list(detail[best]["steer_fails_lost"]) == [True, True, False]

@@ -495,7 +495,7 @@ def in_loop(
 
     Returns a 3-tuple (best, table, detail): the first candidate that covers `share` of the variants
     simulated, or None; a DataFrame with one row per candidate run (motor, gear_ratio,
-    continuous_torque_at_wheel, coverage, not_simulated, not_simulated_why, fails_<reason> for each of
+    continuous_torque_at_wheel, coverage, judged, not_simulated, not_simulated_why, fails_<reason> for each of
     IN_LOOP_REASONS, start_rise_median, residual_K, runs; `in_loop_lines` words it); {name: DataFrame} per
     candidate, each variant's parameters, its in-the-loop columns and fails_<reason> (True = fails). A
     variant whose run diverged, or failed a physics check (`motor_status` unstable) with its steering held, could
@@ -586,6 +586,7 @@ def in_loop(
                 "gear_ratio": c["N"],
                 "continuous_torque_at_wheel": bound_at_wheel(c, np.nan),
                 "coverage": float(fits[judged].sum() / counted),
+                "judged": int(judged.sum()),  # the variants the drive's coverage is over: simulated, steering held
                 "not_simulated": int(lost.sum()),
                 "not_simulated_why": ", ".join(f"{v} {k}" for k, v in why_lost.items()),
                 **{f"fails_{r}": int(why[r].to_numpy()[judged].sum()) for r in IN_LOOP_REASONS},
