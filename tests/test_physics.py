@@ -64,6 +64,11 @@ ACKERMANN_RADIUS_RTOL = 0.015  # path radius of the chassis origin: measured +0.
 # heading still creeps, 2.7e-3 deg over the window
 CRAB_ANGLE_DEG = 0.03  # measured 1.8e-2 deg since the soft impedance (validation/SCRUB.md)
 CRAB_SPEED_RTOL = 6e-3  # chassis speed vs the rim speed: measured -4.3e-3 (penetration)
+# largest steady drive torque / (mu N r) in a slow turn (R 1.5 m at 2 km/h, or a pivot at 20 deg/s) of a wheel that
+# trails its steering axis by 0.05 m: measured 0.012 (Ackermann), 0.031 (pivot: the wheel's width scrubs on its tight
+# circle; the seed's own, with no trail, read 0.022 and 0.031); with the targets set for the axes' places, 0.41 and 0.13
+TRAIL_FIGHT_SHARE = 0.05
+TURN_IN_SHARE = 0.1  # measured 0.032; 0.51 with the steady turn's speeds of each instant (the wheels fought)
 SYMMETRY_ATOL_M = 1e-6  # m, pivot centre drift; zero by symmetry, measured 1.9e-14 (solver round-off)
 RAMP_ACCEL_RTOL = 5e-3  # chassis acceleration over a linear drive ramp vs 1 m/s^2 / (1 + creep): measured 5e-5 (slip)
 STEADY_ACCEL_ATOL = 2e-8  # m/s^2 after the ramp: measured 1.7e-9 (1.6e-9 after a linear ramp)
@@ -296,6 +301,62 @@ def test_ackermann_turns_at_v_over_r(vehicle, radius, speed_kmh):
     rate, w = steady_yaw_rate(res.series, 6.5)
     np.testing.assert_allclose(rate, np.sign(radius) * speed_kmh / 3.6 / big_r, rtol=ACKERMANN_YAW_RTOL)
     np.testing.assert_allclose(np.hypot(w.x - xc, w.y - radius).mean(), big_r, rtol=ACKERMANN_RADIUS_RTOL)
+
+
+def _trailed(vehicle):
+    """Issue 51's 60-80 kg robot's geometry (sweeps/sidewalk_robot.yaml): steering axes at the chassis
+    corners (+-0.30, +-0.225 m), wheels at (+-0.25, +-0.25): each wheel 0.05 m along the vehicle from its axis."""
+    v = vehicle
+    return dataclasses.replace(
+        v,
+        chassis=dataclasses.replace(v.chassis, length=0.6, width=0.45, height=0.3, mass=44.0, z_cg=0.28),
+        wheel=dataclasses.replace(v.wheel, radius=0.10, width=0.05, mass=1.5, x_cg=0.25, y_cg=0.25),
+        hub=dataclasses.replace(v.hub, radius=0.035, length=0.12, mass=2.5, y_cg=0.225),
+    )
+
+
+@pytest.mark.parametrize("kind, kw", [("ackermann", dict(turn_radius=1.5, speed_kmh=2.0)), ("pivot", {})])
+def test_turns_roll_every_wheel_when_it_trails_its_axis(vehicle, kind, kw):
+    """A wheel 0.05 m along the vehicle from its steering axis (a trail) still rolls without sliding:
+    each wheel's angle and speed follow from where its centre sits (scenarios._rolling_about). On flat
+    ground, with no rolling resistance, a slow kinematic turn needs almost no drive torque; wheels set
+    for the axes' places fought each other instead (the inner rear wheel drove at 5.1 N m and the outer
+    ones braked at 1 km/h in sweeps/robot_mission.yaml's turn: peaks no motor's fault). The Ackermann
+    centre is on the rear wheels' line, (-wheel.x_cg, R): the yaw rate is v / hypot(x_cg, R)."""
+    v = _trailed(vehicle)
+    res = simulate(v, make_scenario(kind, friction=0.9, total_time=8.0, **kw))
+    assert res.stats["status_code"] == 0
+    rate, w = steady_yaw_rate(res.series, 6.5)
+    grip = 0.9 * v.total_mass * 9.81 / 4 * v.wheel.radius  # N m, one wheel's mu N r at its static load
+    fight = np.abs(w[[f"drive_{c}" for c in CORNERS]].mean().to_numpy()).max() / grip
+    assert fight < TRAIL_FIGHT_SHARE, fight
+    if kind == "pivot":
+        np.testing.assert_allclose(np.rad2deg(rate), 20.0, rtol=PIVOT_YAW_RTOL)
+        return
+    xc, radius = -v.wheel.x_cg, kw["turn_radius"]
+    np.testing.assert_allclose(rate, kw["speed_kmh"] / 3.6 / np.hypot(xc, radius), rtol=ACKERMANN_YAW_RTOL)
+    path = np.hypot(w.x - xc, w.y - radius).mean()
+    np.testing.assert_allclose(path, np.hypot(xc, radius), rtol=ACKERMANN_RADIUS_RTOL)
+
+
+def test_turning_in_rolls_every_wheel_when_it_trails_its_axis(vehicle):
+    """Into a turn while rolling (a mission's straight-to-Ackermann blend): a trailed wheel sweeps sideways at
+    trail * steering rate, so the chassis must yaw faster than the steady turn of the instant for the front
+    wheels to roll (scenarios.ackermann_rolling). At 1 km/h into a 1.5 m radius over 1 s, the largest drive
+    torque of the turn-in is TURN_IN_SHARE of a wheel's grip at most."""
+    v = _trailed(vehicle)
+    segments = [
+        {"kind": "accelerate", "duration": 2.0},
+        {"kind": "cruise", "duration": 1.0},
+        {"kind": "turn", "turn": "ackermann", "duration": 3.0, "turn_radius": 1.5, "transition": 1.0},
+    ]
+    sc = scenario_from_mapping({"kind": "mission", "speed_kmh": 1.0, "friction": 0.9, "segments": segments}, "test")
+    res = simulate(v, sc)
+    assert res.stats["status_code"] == 0
+    w = res.series[(res.series.time > 3.0) & (res.series.time < 5.0)]
+    grip = 0.9 * v.total_mass * 9.81 / 4 * v.wheel.radius
+    share = np.abs(w[[f"drive_{c}" for c in CORNERS]].to_numpy()).max() / grip
+    assert share < TURN_IN_SHARE, share
 
 
 def test_heavier_payload_needs_proportionally_more_torque(vehicle):

@@ -57,6 +57,7 @@ from batchveh.model import laws
 from batchveh.model.scenarios import (
     Kind,
     Scenario,
+    ackermann_rolling,
     ackermann_targets,
     axis_roll,
     gravity_vector,
@@ -409,10 +410,13 @@ def mission_controls(sc: Scenario, p: Mapping[str, Any], t):
         if not m.split[k] and seg.kind != "stop" and "ackermann" in family and family <= {"straight", "ackermann"}:
 
             def change(tt, curves=(curve_prev, curve_k), tr=tr, t0=t0, prev=(omega_prev, alpha_prev)):
-                frac = laws.smooth_step(tt, 0.0, 1.0, tr, t0)
-                kappa, speed = (a + (b - a) * frac for a, b in zip(*curves, strict=True))
-                omega_t, alpha_t = ackermann_targets(p, kappa, speed)
-                return omega_t - prev[0], alpha_t - prev[1]
+                def blend(t_):
+                    frac = laws.smooth_step(t_, 0.0, 1.0, tr, t0)
+                    return tuple(a + (b - a) * frac for a, b in zip(*curves, strict=True))
+
+                kappa, speed = blend(tt)
+                alpha_t, alpha_rate = jax.jvp(lambda t_: ackermann_targets(p, *blend(t_))[1], (tt,), (1.0 + 0.0 * tt,))
+                return ackermann_rolling(p, kappa, speed, alpha_t, alpha_rate) - prev[0], alpha_t - prev[1]
         else:
             half = tr / 2 if m.split[k] else tr
 

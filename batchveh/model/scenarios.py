@@ -220,11 +220,9 @@ def crab(sc, p, t):
 
 def pivot_targets(p, yaw_rate_dps):
     """(wheel speeds (4,) rad/s, steering angles (4,) rad) of a turn on the spot at yaw_rate_dps
-    (deg/s, >0 counter-clockwise): each wheel tangent to a circle about the centre."""
+    (deg/s, >0 counter-clockwise) about the chassis centre: each wheel rolls tangent to its circle."""
     ax, ay = _axes(p)
-    alpha_t = -_SX * _SY * jnp.arctan2(jnp.abs(ax), jnp.abs(ay))
-    rho = jnp.hypot(ax, ay) + _offset(p)  # wheel centre lies on the radial line through its axis
-    return -_SY * jnp.deg2rad(yaw_rate_dps) * rho / p["wheel.radius"], alpha_t
+    return _rolling_about(p, ax, ay, jnp.deg2rad(yaw_rate_dps))
 
 
 def pivot(sc, p, t):
@@ -236,19 +234,61 @@ def pivot(sc, p, t):
 
 
 def ackermann_targets(p, curvature, speed_kmh):
-    """(wheel speeds (4,) rad/s, steering angles (4,) rad) of a turn about a centre on the rear axle
-    line at radius 1 / curvature (curvature in 1/m, >0 left; 0 drives straight), the chassis centre
-    at speed_kmh: the rear wheels steer 0, each wheel rolls at its own distance from the centre."""
+    """(wheel speeds (4,) rad/s, steering angles (4,) rad) of a turn about a centre on the rear
+    wheels' axle line, (-wheel.x_cg, 1 / curvature) (curvature in 1/m, >0 left; 0 drives straight),
+    the chassis centre at speed_kmh: the rear wheels steer 0, each wheel rolls at its own distance
+    from the centre. Lengths are scaled by the curvature, so a straight line is the same formula."""
     ax, ay = _axes(p)
-    xc = -p["chassis.length"] / 2
-    alpha_t = jnp.arctan((ax - xc) * curvature / (1.0 - ay * curvature))
-    # wheel centres after steering; distance to the turn centre and yaw rate, both times the curvature
-    wx = ax - jnp.sin(alpha_t) * _SY * _offset(p)
-    wy = ay + jnp.cos(alpha_t) * _SY * _offset(p)
-    dist_k = jnp.hypot((wx - xc) * curvature, wy * curvature - 1.0)
-    return jnp.abs(speed_kmh / 3.6) * dist_k / jnp.hypot(xc * curvature, 1.0) / p["wheel.radius"] * jnp.sign(
-        speed_kmh
-    ), alpha_t
+    xc = -p["wheel.x_cg"]
+    # the chassis centre turns at yaw rate v kappa / hypot(xc kappa, 1), at v
+    rate = speed_kmh / 3.6 / jnp.hypot(xc * curvature, 1.0)
+    return _rolling_about(p, (ax - xc) * curvature, ay * curvature - 1.0, rate, scale=curvature)
+
+
+def ackermann_rolling(p, curvature, speed_kmh, alpha, alpha_rate):
+    """Wheel speeds (4,) rad/s while the Ackermann steering angles `alpha` (4,) rad change at `alpha_rate`
+    (rad/s), the curvature (1/m) and speed_kmh those of the instant.
+
+    A wheel that trails its axis by dx sweeps sideways at dx * alpha_rate as it steers. It cannot roll that
+    sweep away, so the chassis yaws at the rate that lets each front wheel roll without sliding instead of
+    the steady v kappa / hypot(xc kappa, 1): with the rear wheels' axle point (xc, 0) at v_r along the
+    chassis, a front wheel's centre W (heading h, normal n) has no velocity along n when
+        yaw = (v_r sin a - alpha_rate dx) / (W_y sin a + (W_x - xc) cos a),
+    the mean of the two front wheels' taken. Each wheel then rolls at the chassis' velocity at its centre
+    along its heading (its own sweep along the heading, axis_roll, is added by the caller). With
+    alpha_rate 0 this is ackermann_targets' speeds; with no trail (dx 0) the yaw is the steady one."""
+    ax, ay = _axes(p)
+    xc = -p["wheel.x_cg"]
+    dx = _SX * (p["wheel.x_cg"] - p["chassis.length"] / 2)
+    dy = _SY * _offset(p)
+    v_r = speed_kmh / 3.6 / jnp.hypot(xc * curvature, 1.0)
+    c, s = jnp.cos(alpha), jnp.sin(alpha)
+    wx, wy = ax + dx * c - dy * s, ay + dx * s + dy * c
+    yaw = (v_r * s - alpha_rate * dx) / (wy * s + (wx - xc) * c)
+    front = _SX > 0
+    yaw = jnp.sum(jnp.where(front, yaw, 0.0), axis=-1, keepdims=True) / front.sum()
+    return ((v_r - yaw * wy) * c + yaw * (wx - xc) * s) / p["wheel.radius"]
+
+
+def _rolling_about(p, ux, uy, rate, scale=1.0):
+    """(wheel speeds (4,) rad/s, steering angles (4,) rad) that roll every wheel without sliding
+    about one centre: (ux, uy) is each steering axis's place from that centre and `rate` the yaw
+    rate (rad/s), both times `scale` (the curvature of an Ackermann turn; 1 on the spot).
+
+    The wheel centre sits at d = (dx, dy) from its axis at zero steer (a trail dx where the wheel
+    is not on its axis's line, the offset dy outboard), and turns with the hub. Heading
+    h = (cos a, sin a): the centre's velocity about the centre lies along h when (u + R(a) d).h = 0,
+    i.e. u.h = -dx, so a = atan2(uy, ux) +- arccos(-dx / |u|), the root nearer straight ahead.
+    The wheel then rolls at rate (z x (u + R(a) d)).h / r."""
+    dx = _SX * (p["wheel.x_cg"] - p["chassis.length"] / 2) * scale
+    dy = _SY * _offset(p) * scale
+    theta = jnp.arctan2(uy, ux)
+    half = jnp.arccos(jnp.clip(-dx / jnp.hypot(ux, uy), -1.0, 1.0))
+    a1, a2 = (jnp.arctan2(jnp.sin(theta + k * half), jnp.cos(theta + k * half)) for k in (1.0, -1.0))
+    alpha = jnp.where(jnp.abs(a1) <= jnp.abs(a2), a1, a2)
+    c, s = jnp.cos(alpha), jnp.sin(alpha)
+    wx, wy = ux + dx * c - dy * s, uy + dx * s + dy * c
+    return rate * (wx * s - wy * c) / p["wheel.radius"], alpha
 
 
 def ackermann(sc, p, t):
