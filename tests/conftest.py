@@ -1,6 +1,10 @@
 """Shared helpers: closed-form references from ../shared/seed/REFERENCE.md."""
 
+from pathlib import Path
+
 import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 import yaml
 
@@ -60,3 +64,39 @@ def mjx_output_dtypes(monkeypatch) -> set[str]:
 
     monkeypatch.setattr(jax, "device_get", spy)
     return seen
+
+
+# The results' Arrow schema (tests/test_schema.py), written by hand from the columns' documented meaning
+# (results.column_doc), not read from a result
+LABELS = {"status", "motor", "reasons", "steer_reasons", "motor_status", "motor_check"}
+FLAGS = {"slipping", "steady", "reached", "cleared", "simulated", "steer_held", "fits", "motor_limited"}
+
+
+def _expected(name: str) -> str:
+    if name == "variant":
+        return "int64"
+    if name in LABELS:
+        return "string"
+    if name in FLAGS:
+        return "bool"
+    return "float64"
+
+
+def _kind(t: pa.DataType) -> str:
+    if pa.types.is_string(t) or pa.types.is_large_string(t):
+        return "string"
+    return str(t).replace("double", "float64")
+
+
+def schema_misses(path: Path) -> dict[str, tuple[str, str]]:
+    """Every column of every Parquet file under `path` (or the file) whose type is not the pinned one:
+    name -> (written, pinned)."""
+    files = [path] if path.is_file() else sorted(path.glob("part-*.parquet"))
+    assert files, path
+    out = {}
+    for f in files:
+        for field in pq.read_schema(f):
+            got, want = _kind(field.type), _expected(field.name)
+            if got != want:
+                out[field.name] = (got, want)
+    return out

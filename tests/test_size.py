@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import schema_misses
 
 from batchveh.size import EXIT_EXISTS, EXIT_INPUT, EXIT_OK, candidates, main
 
@@ -65,6 +66,7 @@ def test_the_command_chooses_and_writes_its_report(sized, capsys):
         assert f"]({src})" in md
     summary = json.loads((out / "sizing.json").read_text())
     assert summary["variants"] == LIMIT and summary["chosen"] in md and "## Verdict" in md
+    assert schema_misses(out / "verdicts.parquet") == {} and schema_misses(out / "servo") == {}
     verdicts = pd.read_parquet(out / "verdicts.parquet")
     assert set(verdicts["motor"]) == {row["motor"] for row in summary["loop"]}
     assert (verdicts.groupby("motor").size() == LIMIT).all()

@@ -123,8 +123,11 @@ def _temporary(name: str) -> bool:
 
 
 def annotated_table(frame: pd.DataFrame, fields: dict[str, dict[str, str]], meta: dict[str, str]) -> pa.Table:
-    """A frame as an Arrow table with `fields[name]` as each field's metadata and `meta` on the file."""
-    table = pa.Table.from_pandas(frame, preserve_index=False)
+    """A frame as an Arrow table with `fields[name]` as each field's metadata and `meta` on the file. Every
+    floating column is written float64, whatever the engine computed in (MJX and Warp run float32): a result's
+    schema does not depend on the engine (tests/test_schema.py pins each column's type)."""
+    wide = {c: "float64" for c, t in frame.dtypes.items() if pd.api.types.is_float_dtype(t)}
+    table = pa.Table.from_pandas(frame.astype(wide), preserve_index=False)
     schema = pa.schema([f.with_metadata(fields.get(f.name, {})) for f in table.schema], metadata=meta)
     return table.cast(schema)
 
