@@ -259,9 +259,11 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
         allowed = ", ".join(["mission", *mission_segments(df)]) if "mission_drive_lf_rms" in df else "none"
         raise ConfigError(f"--span: {span!r} is not a span of {args.spec}'s results; allowed: {allowed}")
     common = {"share": args.share, "params": params, "duty": spec.duty, "span": span}
-    best, table, _ = screen(df, cat, armature=armature, accel=accel, ramp=ramp, **common)
-    _, steer_table, _ = screen(df, cat, group="steer", **common)
+    _, steer_table, steer_failing = screen(df, cat, group="steer", **common)
     steer = args.steer or steering(steer_table, args.share)
+    # the drives are screened over the variants the steering holds, as the loop counts them
+    judged = ~df.index.isin(steer_failing[steer].index)
+    best, table, _ = screen(df, cat, armature=armature, accel=accel, ramp=ramp, judged=judged, **common)
     walls["screen"] = time.perf_counter() - t0
     runs = candidates(table, best)
     bar.total = n * (1 + HOT_RUNS * len(runs))

@@ -223,20 +223,23 @@ def test_a_late_nan_keeps_the_segments_that_ended_before():
     )
     rng = np.random.default_rng(0)
     tau = rng.normal(0.0, 2.0, (2, 8, 9))  # 2 variants x 8 steps x (8 motors + drive sum), N m
-    abs_lp = np.abs(rng.normal(0.0, 1.0, (2, 8, 9)))
+    lp = rng.normal(0.0, 1.0, (2, 8, 9))  # the low-pass filtered torques, signed
     rate = rng.normal(0.0, 3.0, (2, 8, 8))  # rad/s
     vel = rng.normal(0.0, 0.5, (2, 8, 3))  # m/s
-    tau[1, 5:] = abs_lp[1, 5:] = rate[1, 5:] = vel[1, 5:] = np.nan  # variant 1 diverges at step 5
+    tau[1, 5:] = lp[1, 5:] = rate[1, 5:] = vel[1, 5:] = np.nan  # variant 1 diverges at step 5
     c = mission_stats.init(cfg, (2,))
     for block in (slice(0, 3), slice(3, 8)):  # two blocks: the carry too
         s = {"tau": tau[:, block, :8], "rate": rate[:, block], "vel": vel[:, block]}
-        c = mission_stats.update(c, tau[:, block], abs_lp[:, block], s, np.arange(8)[block], cfg)
+        c = mission_stats.update(c, tau[:, block], lp[:, block], s, np.arange(8)[block], cfg)
     out = mission_stats.finalize(c, cfg)
     t0, p0 = tau[:, :4], tau[:, :4, :8] * rate[:, :4]  # the first segment's steps 0-3
     hand = {
         "drive_lf_rms": np.sqrt((t0[..., 0] ** 2).mean(-1)),
         "steer_rr_peak": np.abs(t0[..., 7]).max(-1),
-        "drive_sum_peak_lp": abs_lp[:, :4, 8].max(-1),
+        "drive_sum_peak_lp": np.abs(lp[:, :4, 8]).max(-1),
+        # the low-pass torque's peak where it and the speed have one sign (the motor drives); 0 where it never does
+        "drive_rr_drive_peak_lp": np.where(lp[:, :4, 3] * rate[:, :4, 3] > 0, np.abs(lp[:, :4, 3]), 0.0).max(-1),
+        "steer_lf_drive_peak_lp": np.where(lp[:, :4, 4] * rate[:, :4, 4] > 0, np.abs(lp[:, :4, 4]), 0.0).max(-1),
         "drive_rf_energy_drive": np.maximum(p0[..., 1], 0).sum(-1) * 0.1,
         "steer_lf_energy_regen": np.minimum(p0[..., 4], 0).sum(-1) * 0.1,
         "steer_lr_speed_peak": np.abs(rate[:, :4, 6]).max(-1),
@@ -472,7 +475,15 @@ def test_example_mission_sweep_writes_units_and_spans(tmp_path):
 
 
 _COLUMN = re.compile(r"^(?:mission|seg\d+_\w+?)_(?P<kind>drive|steer)_(?:lf|rf|lr|rr|sum)_(?P<stat>\w+)$")
-_UNIT = {"rms": "N m", "peak": "N m", "peak_lp": "N m", "energy_drive": "J", "energy_regen": "J", "speed_peak": "rad/s"}
+_UNIT = {
+    "rms": "N m",
+    "peak": "N m",
+    "peak_lp": "N m",
+    "drive_peak_lp": "N m",
+    "energy_drive": "J",
+    "energy_regen": "J",
+    "speed_peak": "rad/s",
+}
 
 
 def _assert_warp_matches_c(w, c, dt):

@@ -185,6 +185,73 @@ def test_a_mission_span_is_screened_on_its_own_rms_peak_and_peak_speed():
     assert list(need.speed) == [10.0, 22.0] and list(need.rms) == [2.0, 3.3]
 
 
+def _wheels_frame(span: str, wheels: list[dict]) -> pd.DataFrame:
+    """One row per entry of `wheels` ({wheel: (peak_lp, drive_peak_lp, speed_peak)}, the others 0 N m at
+    10 rad/s), for `span`, and a mission span that fits (2 N m RMS, 3 N m peak at 10 rad/s)."""
+    cols = {}
+    for m in WHEELS:
+        got = [w.get(m, (0.0, 0.0, 10.0)) for w in wheels]
+        cols[f"{span}_{m}_rms"] = [0.5] * len(wheels)
+        cols[f"{span}_{m}_peak_lp"], cols[f"{span}_{m}_drive_peak_lp"], cols[f"{span}_{m}_speed_peak"] = zip(
+            *got, strict=True
+        )
+        cols[f"mission_{m}_rms"], cols[f"mission_{m}_peak_lp"] = [2.0] * len(wheels), [3.0] * len(wheels)
+        cols[f"mission_{m}_drive_peak_lp"], cols[f"mission_{m}_speed_peak"] = [3.0] * len(wheels), [10.0] * len(wheels)
+    return pd.DataFrame({k: np.asarray(v, float) for k, v in cols.items()})
+
+
+def test_a_duty_cycles_voltage_is_read_wheel_by_wheel_on_the_torque_that_drives():
+    """dc-test at the wheel: i = T / 0.8, v = 1.2 i + 0.05 x 20 w (no gearhead speed limit here); 24 V. The
+    stop's rows: 0, every wheel brakes at 3 N m from 22 rad/s (a braking torque needs less voltage): 0.98 x 22 =
+    21.6 V; 1, lf drives 3 N m at 10 rad/s while rr spins free at 22: max(4.5 + 9.8, 21.6) = 21.6 V; 2, lf drives
+    3 N m at 22 rad/s: 4.5 + 21.6 = 26.1 V, over; 3, lf drives 1 N m at 22.9 rad/s: 1.5 + 22.4 = 23.9 V, within
+    the 2% behind its speed that the loop does not count as short (1.5 + 22.9 = 24.4 V at full speed). Read as
+    before (the segment's largest |torque| at its largest speed, at full speed) all four fail (26.5, 26.5, 26.5,
+    24.4 V)."""
+    free = DCMotor(**{**vars(DC), "name": "dc-free", "gear_max_input_speed": None})
+    wheels = [
+        {m: (3.0, 0.0, 22.0) for m in WHEELS},
+        {"drive_lf": (3.0, 3.0, 10.0), "drive_rr": (0.0, 0.0, 22.0)},
+        {"drive_lf": (3.0, 3.0, 22.0)},
+        {"drive_lf": (1.0, 1.0, 22.9)},
+    ]
+    df = _wheels_frame("seg1_stop", wheels)
+    _, table, failing = screen(df, {"dc-free": free}, share=1.0, span="mission")
+    bad = failing["dc-free"]
+    assert list(bad.index) == [2] and {r for r in REASONS if bad.loc[2, r]} == {"voltage"}
+    assert bad.loc[2, "where"] == "seg1_stop: voltage at 22 rad/s"
+    old = df.drop(columns=[c for c in df if c.endswith("_drive_peak_lp")])
+    _, _, failing = screen(old, {"dc-free": free}, share=1.0, span="mission")
+    assert list(failing["dc-free"].index) == [0, 1, 2, 3]
+
+
+def test_the_screen_counts_a_drive_over_the_variants_judged():
+    """As the loop counts a drive over the runs whose steering held: the one variant that fails on RMS is not
+    judged, so the coverage is 99 of 99 and no reason is counted."""
+    df = _frame(rms=[1.0] * 99 + [3.3], peak=[2.0] * 100, speed=[5.0] * 100)
+    judged = np.arange(100) < 99
+    best, table, failing = screen(df, {"dc-test": DC}, share=1.0, judged=judged)
+    row = table.iloc[0]
+    assert best == "dc-test" and row.coverage == 1.0 and row.judged == 99 and row.fails_rms == 0
+    assert failing["dc-test"].empty
+    best, table, _ = screen(df, {"dc-test": DC}, share=1.0)
+    assert best is None and table.judged[0] == 100 and table.fails_rms[0] == 1
+
+
+def test_the_loop_names_a_speed_miss_by_the_segment_that_asks_it():
+    """The servo's peak wheel speed passes the no-load speed (24 rad/s at the wheel) first in seg2 for row 0,
+    in seg1 for row 1, nowhere for row 2."""
+    servo = pd.DataFrame(
+        {
+            f"seg{k}_{name}_{m}_speed_peak": v
+            for k, name, v in ((1, "cruise", [10.0, 25.0, 10.0]), (2, "turn", [24.5, 30.0, 23.0]))
+            for m in WHEELS
+        }  # fmt: skip
+    )
+    servo = servo.assign(**{f"seg{k}_{n}_{m}_rms": 1.0 for k, n in ((1, "cruise"), (2, "turn")) for m in WHEELS})
+    assert list(motors._first_segment_above(servo, 24.0)) == ["seg2_turn", "seg1_cruise", ""]
+
+
 def test_the_rotor_inertia_is_reflected_only_with_accel():
     """peak + max(J N^2 - armature, 0) |accel| with J N^2 = 4e-3 kg m^2: with accel 500 rad/s^2 and no servo
     armature, 4 N m becomes 6 N m (7.5 A); with armature 1e-3 simulated already, 5.5 N m (6.875 A); with an

@@ -61,7 +61,8 @@ REASON_TEXT = {
     "rms": "RMS current, at the spec's duty, above the continuous current",
     "thermal": "steady winding temperature, at the spec's duty, above its maximum (one-node model with R(T))",
     "voltage": "the steady window's peak torque (at most the current's bound) at speed needs more than the bus "
-    "voltage (the voltage line)",
+    "voltage (the voltage line); a duty cycle's: each wheel's driving peak at 98% of its peak speed, segment by "
+    "segment",
     "peak": "the low-pass peak torque needs more than the current limit allows (eta N K i_max): a drive's over the "
     "steady window, a steering motor's over the whole run",
     "speed": "the wheel speed needs more than the no-load speed at the bus voltage",
@@ -268,6 +269,7 @@ def screen(
     params: list[str] | None = None,
     duty: float = 1.0,
     ramp: dict[str, Any] | None = None,
+    judged: Any = None,
 ) -> tuple[str | None, pd.DataFrame, dict[str, pd.DataFrame]]:
     """The fast screen of a sweep's ideal-servo demand against DC motors with their gearheads.
 
@@ -287,7 +289,9 @@ def screen(
 
     Returns a 3-tuple (best, table, failing):
     - best: the name of the smallest candidate, by its continuous torque at the wheel eta N K i_max,
-      whose coverage is at least `share` (the share of `df`'s rows it covers), or None where none does.
+      whose coverage is at least `share` (the share of `df`'s rows it covers, or of the rows `judged` marks: a
+      boolean per row, as the loop counts a drive over the runs whose steering held; None: every row), or None
+      where none does.
       `share=1.0`: the smallest motor that covers every variant;
     - table: a DataFrame, one row per candidate sorted by that torque: motor, gear_ratio,
       continuous_torque_at_wheel (N m), coverage (0-1) and fails_<reason> for each of REASONS (the count
@@ -304,6 +308,7 @@ def screen(
         params = [col for col in df.columns if col in parameter_specs()]
     keep = list(params)
     segments = mission_segments(df) if span == "mission" else []
+    counted = np.ones(len(df), bool) if judged is None else np.asarray(judged, bool)
     rows, failing = [], {}
     for name, motor in catalogue.items():
         c = motor.resolved(name)
@@ -313,12 +318,13 @@ def screen(
             "motor": name,
             "gear_ratio": c["N"],
             "continuous_torque_at_wheel": bound_at_wheel(c, np.nan),
-            "coverage": float(res["fits"].mean()),
-            **{f"fails_{why}": int(res[why].sum()) for why in REASONS},
-            "limiting": _limiting(where[~res["fits"]]),
+            "coverage": float(res["fits"].to_numpy()[counted].mean()) if counted.any() else 0.0,
+            "judged": int(counted.sum()),
+            **{f"fails_{why}": int(res[why].to_numpy()[counted].sum()) for why in REASONS},
+            "limiting": _limiting(where[~res["fits"] & counted]),
         }
         rows.append(row)
-        bad = ~res["fits"]
+        bad = ~res["fits"] & counted
         failing[name] = pd.concat([df.loc[bad, keep], res.loc[bad, list(REASONS)], where[bad].rename("where")], axis=1)
     table = pd.DataFrame(rows).sort_values("continuous_torque_at_wheel").reset_index(drop=True)
     ok = table[table["coverage"] >= share]
@@ -351,13 +357,19 @@ def _segments(df: pd.DataFrame, group: str, segments: list[str], motor: Any, res
     not an average; and the gearhead's intermittent rating), ORed into `res` in place; the cycle's RMS and heat
     stay the whole mission's. Per variant, the first segment and reason it fails for ("seg3_climb: voltage at
     16.5 rad/s"), or the cycle's ("mission: thermal"); "" where it fits."""
-    bound = bound_at_wheel(motor.resolved())
+    c = motor.resolved()
+    bound = bound_at_wheel(c)
     where = pd.Series("", index=res.index, dtype=object)
+    wheel_by_wheel = f"{segments[0]}_{GROUPS[group][0]}_drive_peak_lp" in df if segments else False
+    if wheel_by_wheel:  # the voltage is each segment's (below), not the cycle's peak torque at its peak speed
+        res["voltage"] = False
     for seg in segments:
         need = demand(df, group, seg)
         got = screen_one(need, motor)
         if motor.gear_max_intermittent_torque is not None:
             got["gear_torque"] = np.minimum(need["peak"], bound) > motor.gear_max_intermittent_torque
+        if wheel_by_wheel:  # the voltage wheel by wheel, on the torque that drives
+            got["voltage"] = _segment_voltage(df, group, seg, c) > c["V"]
         for why in (*INSTANT, "gear_torque"):
             hit = got[why].to_numpy(bool)
             res[why] = res[why].to_numpy(bool) | hit
@@ -368,6 +380,23 @@ def _segments(df: pd.DataFrame, group: str, segments: list[str], motor: Any, res
     rest = _where(res, "mission")
     where[(where == "") & (rest != "")] = rest
     return where
+
+
+def _segment_voltage(df: pd.DataFrame, group: str, seg: str, c: dict[str, float]) -> np.ndarray:
+    """Per variant, the largest terminal voltage a segment asks of one of the group's motors: each wheel's peak
+    low-pass torque while it drives (a braking torque needs less voltage, not more), at most the bound, with that
+    wheel's own peak speed: i R + K N w, the largest over the wheels. Still an upper bound (the two peaks need not
+    fall at one instant), but it no longer pairs one wheel's torque with another's speed, or a stop's braking with
+    the speed it brakes from. Counted as the loop counts a voltage miss: a drive at its voltage line is short only
+    where it falls more than SHORT_SHARE behind its speed (`segment_shortfall`), so the speed is taken SHORT_SHARE
+    below the peak."""
+    bound = bound_at_wheel(c)
+    out = np.zeros(len(df))
+    for m in GROUPS[group]:
+        torque = np.minimum(df[f"{seg}_{m}_drive_peak_lp"].abs().to_numpy(), bound)
+        speed = (1.0 - SHORT_SHARE) * df[f"{seg}_{m}_speed_peak"].abs().to_numpy()
+        out = np.maximum(out, torque / (c["eta"] * c["N"] * c["K"]) * c["R"] + c["K"] * c["N"] * speed)
+    return out
 
 
 def _limiting(where: pd.Series) -> str:
@@ -402,11 +431,12 @@ DIFFER = {
     "there (counted as peak)",
     "thermal": "screen: the steady window's (a duty cycle's: the cycle's) RMS held for ever; loop: the whole run "
     "(its ramp too), repeated",
-    "voltage": "screen: the window's peak torque (at most the bound) at the mean speed; loop: short of speed at "
-    "the line",
+    "voltage": "screen: the window's peak torque (at most the bound) at the mean speed (a duty cycle's: each "
+    "wheel's driving peak at 98% of its peak speed, both peaks taken together though they need not coincide); "
+    "loop: short of speed at the line",
     "peak": "screen: the window's low-pass peak above the current's bound, or the ramp, at the bound's "
     "acceleration, still short in the window (a straight line's); loop: short of speed at that bound",
-    "speed": "the same: the servo's mean wheel speed against the no-load speed",
+    "speed": "the same: the servo's mean wheel speed (a duty cycle's peak) against the no-load speed",
     "gear_torque": "the same ratings; screen on the servo's torque, loop on the motor's",
     "gear_speed": "the same rating; screen: the servo's mean wheel speed, loop: the motor's own (a wheel may spin)",
     "energy": "the loop only (the servo's run draws no current)",
@@ -571,7 +601,11 @@ def in_loop(
             servo_speed = df["wheel_speed"].to_numpy(float) if "wheel_speed" in df else None
         behind = segment_shortfall(df.reset_index(drop=True), res)
         why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE, duty, servo_speed, behind != "")
-        where = _where(why, behind.where(behind != "", "window"))  # a mission's segment it fell behind in
+        # named by a mission's segment it fell behind in, or whose servo speed passed the no-load speed (as the
+        # screen names it); else the cycle's ("mission"), or a straight line's window
+        fast = _first_segment_above(df.reset_index(drop=True), c["V"] / (c["K"] * c["N"]))
+        span = behind.where(behind != "", fast.where(why["speed"] & (fast != ""), "")).replace("", None)
+        where = _where(why, span.fillna("mission" if cycle[0] in df else "window"))
         why.loc[lost, :] = False
         steer_why = steer_reasons(res, cat[steer], cs, duty)
         steer_why.loc[lost, :] = False
@@ -643,6 +677,16 @@ def in_loop_lines(table: pd.DataFrame) -> list[str]:
             line += f"; {k} variant{'s' * (k > 1)} could not be simulated: {row['not_simulated_why']}"
         lines.append(line)
     return lines
+
+
+def _first_segment_above(servo: pd.DataFrame, speed: float) -> pd.Series:
+    """Per variant of a mission's servo run, the first segment whose peak wheel speed (rad/s) passes `speed`;
+    "" where none does, and for a run that is no mission."""
+    out = pd.Series("", index=servo.index, dtype=object)
+    for seg in mission_segments(servo):
+        over = servo[[f"{seg}_{m}_speed_peak" for m in WHEELS]].abs().max(axis=1).to_numpy(float) > speed
+        out[over & (out == "").to_numpy()] = seg
+    return out
 
 
 def segment_shortfall(servo: pd.DataFrame, res: pd.DataFrame) -> pd.Series:

@@ -188,6 +188,14 @@ def _counts(row: Any, reasons: tuple[str, ...], prefix: str = "fails_") -> str:
     return ", ".join(parts) or "none"
 
 
+def _judged_share(s: Sizing) -> str:
+    """" (46 of 48)": how many variants the drives' screen counted, where the steering's screen fails some."""
+    if "judged" not in s.screen:
+        return ""
+    judged, total = int(s.screen["judged"].iloc[0]), len(s.servo)
+    return f" ({judged} of {total})" if judged < total else ""
+
+
 def verdicts(s: Sizing) -> pd.DataFrame:
     """Per variant and candidate run in the loop (long form): the swept values, `motor`, `fits`, the reasons it
     fails (`;`-separated, IN_LOOP_REASONS), `motor_status`, `motor_check`, whether it could be simulated, whether
@@ -512,8 +520,8 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
             "variant fails for is named)" if s.span == "mission" else f"the span {s.span}") + "."),
         ("", "text", f"Both passes use one list of criteria at the spec's duty ({s.duty:g} of the time: "
                      f"{'the run repeated back to back' if s.duty >= 1 else 'the run repeated with rests between'}"
-                     "). The screen counts over every variant; the loop over the variants simulated whose steering "
-                     "held."),
+                     "). The screen counts a drive over the variants the steering's screen holds"
+                     f"{_judged_share(s)}; the loop over the variants simulated whose steering held."),
     ]  # fmt: skip
     for title, path in figs.items():
         out.append((title, "figure", path))

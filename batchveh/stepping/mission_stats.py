@@ -9,7 +9,9 @@ every step of the laws (after the settle), segment k the steps whose samples fal
 - for each motor and the four-wheel sum (`stats.CHANNELS`): `rms`, `peak` (of |torque|) and
   `peak_lp` (of the low-pass filtered |torque|, the filter of `stats`, running through every
   step from the settle on), N m;
-- for each motor (`MOTORS`): `energy_drive` (J, the integral of max(tau omega, 0): the motor
+- for each motor (`MOTORS`): `drive_peak_lp` (N m, the peak low-pass torque while the motor drives:
+  the filtered torque and omega of one sign; what the voltage line must carry at speed, a braking
+  torque needing less voltage, not more); `energy_drive` (J, the integral of max(tau omega, 0): the motor
   drives) and `energy_regen` (J, of min(tau omega, 0), <= 0: the motor brakes and could
   regenerate), with omega the motor joint's speed (the wheel's spin, the steering rate); their
   sum over the mission is the drive motors' `energy` of `stats`; `speed_peak` (rad/s, of |omega|);
@@ -45,6 +47,7 @@ ELECTRIC_STATS = {
     "energy_regen": ("J", "electrical energy returned to the bus (dcmotor)"),
 }
 MOTOR_STATS = {
+    "drive_peak_lp": ("N m", "peak low-pass filtered torque while the motor drives (torque and speed of one sign)"),
     "energy_drive": ("J", "energy the motor delivers while driving, integral of max(torque x speed, 0)"),
     "energy_regen": ("J", "energy the motor takes back while braking, integral of min(torque x speed, 0), <= 0"),
     "speed_peak": ("rad/s", "peak |motor joint speed| (wheel spin or steering rate)"),
@@ -96,18 +99,18 @@ def init(cfg: MissionStatsConfig, batch: tuple[int, ...], xp=np, dtype=None, mot
         return xp.zeros((*batch, n, *shape), dtype=dtype or xp.float64)
 
     keys9 = ("sumsq", "peak", "peak_lp")
-    keys8 = ("energy_drive", "energy_regen", "above", "speed_peak")
+    keys8 = ("energy_drive", "energy_regen", "above", "speed_peak", "drive_peak_lp")
     out = {**{k: z(len(CHANNELS)) for k in keys9}, **{k: z(len(MOTORS)) for k in keys8}, "distance": z()}
     if motors:
         out.update({k: z(len(MOTORS)) for k in ELECTRIC_KEYS} | {"bus_energy": z()})
     return out
 
 
-def update(c: dict[str, Any], tau, abs_lp, s: dict[str, Any], i, cfg: MissionStatsConfig, xp=np) -> dict[str, Any]:
-    """Fold a block of B steps (indices i (B,)) into carry `c`: tau and abs_lp (..., B, 9) N m (the
-    motors and the four-wheel sum, as `stats.update` builds them), s the samples (`stats.sample`;
-    `rate` (..., B, 8) motor joint speeds rad/s, `vel` (..., B, 3) m/s; with dcmotors `motors`, their
-    electrical sample, with `temp` (..., B, 8) their windings' temperatures)."""
+def update(c: dict[str, Any], tau, lp, s: dict[str, Any], i, cfg: MissionStatsConfig, xp=np) -> dict[str, Any]:
+    """Fold a block of B steps (indices i (B,)) into carry `c`: tau and lp (..., B, 9) N m, the torques and
+    their low-pass filtered values (the motors and the four-wheel sum, as `stats.update` builds them), s the
+    samples (`stats.sample`; `rate` (..., B, 8) motor joint speeds rad/s, `vel` (..., B, 3) m/s; with dcmotors
+    `motors`, their electrical sample, with `temp` (..., B, 8) their windings' temperatures)."""
     first, last = xp.asarray(cfg.first), xp.asarray(cfg.last)
     inside = (i[:, None] >= first[None, :]) & (i[:, None] <= last[None, :])  # (B, S)
     wt = xp.where(inside, 1.0, 0.0).T  # (S, B): sums over a span are products with it
@@ -121,6 +124,9 @@ def update(c: dict[str, Any], tau, abs_lp, s: dict[str, Any], i, cfg: MissionSta
         return xp.maximum(old, xp.where(inside[:, :, None], x[..., :, None, :], 0.0).max(-3))
 
     power = s["tau"] * s["rate"]
+    abs_lp = xp.abs(lp)
+    # the low-pass torque where it drives (0 where it brakes); NaN where the sample is (the product keeps it)
+    driving = abs_lp[..., : len(MOTORS)] * xp.where(lp[..., : len(MOTORS)] * s["rate"] > 0.0, 1.0, 0.0)
     above = xp.where(xp.abs(s["tau"]) > xp.asarray(cfg.threshold), 1.0, 0.0)
     above = xp.where(xp.isfinite(s["tau"]), above, np.nan)  # unknown where the torque is
     speed = xp.sqrt(s["vel"][..., 0] ** 2 + s["vel"][..., 1] ** 2)
@@ -132,6 +138,7 @@ def update(c: dict[str, Any], tau, abs_lp, s: dict[str, Any], i, cfg: MissionSta
         "energy_regen": c["energy_regen"] + total(xp.minimum(power, 0.0)) * cfg.dt,
         "above": c["above"] + total(above) * cfg.dt,
         "speed_peak": peak(c["speed_peak"], xp.abs(s["rate"])),
+        "drive_peak_lp": peak(c["drive_peak_lp"], driving),
         "distance": c["distance"] + total(speed[..., None])[..., 0] * cfg.dt,
     }
     if "i_sumsq" in c:  # the dcmotors: current, winding, energy per span
@@ -159,6 +166,7 @@ def finalize(c: dict[str, Any], cfg: MissionStatsConfig, xp=np) -> dict[str, Any
             cols[f"{span}_{motor}_energy_drive"] = c["energy_drive"][..., k, j]
             cols[f"{span}_{motor}_energy_regen"] = c["energy_regen"][..., k, j]
             cols[f"{span}_{motor}_speed_peak"] = c["speed_peak"][..., k, j]
+            cols[f"{span}_{motor}_drive_peak_lp"] = c["drive_peak_lp"][..., k, j]
             if cfg.counted[j]:
                 cols[f"{span}_{motor}_time_above"] = c["above"][..., k, j]
         cols[f"{span}_distance"] = c["distance"][..., k]

@@ -364,7 +364,7 @@ def update(c: dict[str, Any], s: dict[str, Any], i, cfg: StatsConfig, xp=np) -> 
     if cfg.motors is not None:
         out["motors"] = motor_stats.update(c["motors"], s["motors"], s["tau"], w, wr, cfg.dt, xp)
     if cfg.mission is not None:
-        out["mission"] = mission_stats.update(c["mission"], tau, abs_lp, s, i, cfg.mission, xp)
+        out["mission"] = mission_stats.update(c["mission"], tau, lp, s, i, cfg.mission, xp)
     return out
 
 
