@@ -259,11 +259,9 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
         allowed = ", ".join(["mission", *mission_segments(df)]) if "mission_drive_lf_rms" in df else "none"
         raise ConfigError(f"--span: {span!r} is not a span of {args.spec}'s results; allowed: {allowed}")
     common = {"share": args.share, "params": params, "duty": spec.duty, "span": span}
-    _, steer_table, steer_failing = screen(df, cat, group="steer", **common)
+    best, table, _ = screen(df, cat, armature=armature, accel=accel, ramp=ramp, **common)
+    _, steer_table, _ = screen(df, cat, group="steer", **common)
     steer = args.steer or steering(steer_table, args.share)
-    # the drives are screened over the variants the steering holds, as the loop counts them
-    judged = ~df.index.isin(steer_failing[steer].index)
-    best, table, _ = screen(df, cat, armature=armature, accel=accel, ramp=ramp, judged=judged, **common)
     walls["screen"] = time.perf_counter() - t0
     runs = candidates(table, best)
     bar.total = n * (1 + HOT_RUNS * len(runs))
@@ -296,6 +294,13 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
     bar.refresh()
     walls["in the loop"] = time.perf_counter() - t0
     import pandas as pd
+
+    for name, run in detail.items():  # a motor run in the loop: its screen over the variants that run judged
+        _, one, _ = screen(
+            df, {name: cat[name]}, armature=armature, accel=accel, ramp=ramp, judged=run["judged"], **common
+        )
+        table = pd.concat([table[table["motor"] != name], one]).sort_values("continuous_torque_at_wheel")
+    table = table.reset_index(drop=True)
 
     loop = pd.concat(rows, ignore_index=True)
     hottest = chosen or best_in_loop(loop)

@@ -73,6 +73,9 @@ def test_the_command_chooses_and_writes_its_report(sized, capsys):
     chosen = verdicts[verdicts["motor"] == summary["chosen"]]
     coverage = next(r["coverage"] for r in summary["loop"] if r["motor"] == summary["chosen"])
     assert chosen["fits"].sum() / chosen["steer_held"].sum() == pytest.approx(coverage)
+    # the chosen motor's screen reads the variants its loop run judged (simulated, its steering held)
+    screened = next(r for r in summary["screen"] if r["motor"] == summary["chosen"])
+    assert screened["judged"] == int((chosen["simulated"] & chosen["steer_held"]).sum())
     assert main(args) == EXIT_EXISTS  # a report there: not replaced without --overwrite
     assert "give --overwrite" in capsys.readouterr().err
 

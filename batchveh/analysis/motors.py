@@ -641,6 +641,7 @@ def in_loop(
                 why.add_prefix("fails_"),
                 steer_why.add_prefix("steer_fails_"),
                 where.rename("where"),
+                pd.Series(judged, name="judged"),
             ],
             axis=1,
         )

@@ -189,11 +189,13 @@ def _counts(row: Any, reasons: tuple[str, ...], prefix: str = "fails_") -> str:
 
 
 def _judged_share(s: Sizing) -> str:
-    """" (46 of 48)": how many variants the drives' screen counted, where the steering's screen fails some."""
-    if "judged" not in s.screen:
+    """ " (the best: 46 of 48)": how many variants the screen of the chosen or best motor counted, where fewer than
+    all."""
+    name = focus(s) if len(s.loop) else None
+    if name is None or "judged" not in s.screen:
         return ""
-    judged, total = int(s.screen["judged"].iloc[0]), len(s.servo)
-    return f" ({judged} of {total})" if judged < total else ""
+    judged, total = int(s.screen.set_index("motor").loc[name, "judged"]), len(s.servo)
+    return f" ({name}: {judged} of {total})" if judged < total else ""
 
 
 def verdicts(s: Sizing) -> pd.DataFrame:
@@ -520,8 +522,9 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
             "variant fails for is named)" if s.span == "mission" else f"the span {s.span}") + "."),
         ("", "text", f"Both passes use one list of criteria at the spec's duty ({s.duty:g} of the time: "
                      f"{'the run repeated back to back' if s.duty >= 1 else 'the run repeated with rests between'}"
-                     "). The screen counts a drive over the variants the steering's screen holds"
-                     f"{_judged_share(s)}; the loop over the variants simulated whose steering held."),
+                     "). The loop counts a drive over the variants simulated whose steering held; the screen of a "
+                     "motor run in the loop counts over the same variants, so the two read one set"
+                     f"{_judged_share(s)}; a motor not run, over every variant."),
     ]  # fmt: skip
     for title, path in figs.items():
         out.append((title, "figure", path))
