@@ -306,6 +306,8 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
     hottest = chosen or best_in_loop(loop)
     d = detail[hottest]
     temps = d[[f"drive_{c}_winding_temp_peak" for c in ("lf", "rf", "lr", "rr")]].max(axis=1).to_numpy()
+    if d["judged"].any():  # the hottest of the variants the drive is judged on (not a run its steering lost)
+        temps = np.where(d["judged"].to_numpy(bool), temps, -np.inf)
     worst = int(np.argmax(temps))
     values = {k: float(df[k].iloc[worst]) for k in spec.params if np.issubdtype(df[k].dtype, np.number)}
     # its own hot start: back to back, a run ends where it started (in_loop's last run, within its residual)

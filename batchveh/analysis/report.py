@@ -342,6 +342,11 @@ def worst_trace(axes, s: Sizing) -> None:
         sx.plot(t["time"], t[f"{m}_speed"], lw=1, color="tab:red", label=f"{m}: wheel speed (rad/s)")
         sx.axhline(c["V"] / (c["K"] * c["N"]), color="tab:red", ls="--", lw=1, label="no-load speed")
         sx.set_ylabel("wheel speed (rad/s)")
+        # headroom above and below the bound and the no-load speed, where the two legends sit
+        top = max(bound if c["i_max"] else 0.0, float(t[f"{m}_torque"].abs().max()), 1e-9) * 1.5
+        tx.set_ylim(-top, top)
+        fast = max(c["V"] / (c["K"] * c["N"]), float(t[f"{m}_speed"].abs().max()))
+        sx.set_ylim(-0.5 * fast, 1.5 * fast)
         tx.set_title(f"{name}: the run's most loaded drive, step by step", fontsize=9)
         tx.legend(fontsize=7, loc="upper left")
         sx.legend(fontsize=7, loc="lower right")
