@@ -10,8 +10,9 @@ The vehicles (sweeps/):
   swept too (the spec is written into --out);
 - robot_30kg, warehouse_agv (180-300 kg), seed_sizing (the seed's vehicle, 300 LHS of benchmarks/slope_100k.yaml's
   ranges), rover_1t;
-- and with `--only mission robot_mission agv_mission --json validation/results/sizing_missions.json`, issue 54's
-  duty cycles (sweeps/mission.yaml, sweeps/robot_mission.yaml, sweeps/agv_mission.yaml).
+- and with `--only mission robot_mission robot_mission_share95 agv_mission --json
+  validation/results/sizing_missions.json`, issue 54's duty cycles (sweeps/mission.yaml, sweeps/robot_mission.yaml,
+  the same at --share 0.95, sweeps/agv_mission.yaml).
 
 Per vehicle: the command's wall and last line; the chosen drive and steering motor; for the chosen (or the best) drive
 its screen and loop coverage and their difference in points; the share of variants not simulated; from
