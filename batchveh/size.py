@@ -36,7 +36,7 @@ from batchveh.config import ConfigError, OneLineParser
 
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_INTERRUPTED = 0, 2, 3, 130
 NEAR = 0.05  # without a screen choice, the loop runs the motors within 5 points of the best screen coverage
-HOT_RUNS = 3  # in_loop's runs per candidate: from ambient, then twice from the hot start (its `iterations` 2)
+HOT_RUNS = 2  # in_loop's runs per candidate: from ambient, then from the hot start in closed form (`iterations` 1)
 
 
 def servo_spec(spec: Any, out: Path) -> Any:

@@ -426,21 +426,37 @@ def test_the_wheels_share_only_within_their_grip():
 
 @pytest.mark.parametrize("duty", [1.0, 0.5, 0.2])
 def test_the_hot_start_at_a_duty_is_the_cycles_steady_state(duty):
-    """A one-node winding heated towards a rise P = 80 K (time constant 30 s) for a 10 s run, then resting (1 / duty
-    - 1) runs at ambient, cycle after cycle: 300 cycles of the closed-form node from cold settle on s*. From a cold
-    start (s = 0), one step of `_hot_start` on that run's end, cooled over the rest, lands on s*."""
+    """A one-node winding stepped as the drive steps it (1 ms, its resistance rising 0.39%/K with its
+    temperature), 3 A for the first 4 s of a 10 s run and 1 A after, then resting (1 / duty - 1) runs at ambient,
+    cycle after cycle: 300 cycles from cold settle on s*. `_hot_start` on the first run alone (from cold: its end
+    and its integral of i^2) lands on s*; so does it from a run that started elsewhere (s = 30 K). Without the
+    resistance's rise with temperature (alpha 0 in the closed form) it would land low."""
     from batchveh.analysis.motors import _hot_start
+    from batchveh.model.motors import COPPER_TEMPCOEF
 
-    p_rise, tau, run = 80.0, 30.0, 10.0
+    r, r_th, cap, t_amb, run, dt = 1.2, 6.0, 5.0, 25.0, 10.0, 1e-3
+    c = {"R": r, "R_T": r_th, "C": cap, "t_T": r_th * cap, "T_amb": t_amb}
+    current = np.where(np.arange(int(run / dt)) * dt < 4.0, 3.0, 1.0)
     rest = run * (1 / duty - 1)
+
+    def one_run(s):
+        for i in current:
+            s = s + dt * (i * i * r * (1 + COPPER_TEMPCOEF * (t_amb + s - 25.0)) - s / r_th) / cap
+        return s
+
     s = 0.0
     for _ in range(300):
-        end = p_rise + (s - p_rise) * np.exp(-run / tau)
-        s = end * np.exp(-rest / tau)
-    cold_end = p_rise * (1 - np.exp(-run / tau)) * np.exp(-rest / tau)
-    assert _hot_start(np.array([cold_end]), run, tau, rest)[0] == pytest.approx(s, rel=1e-9)
-    # the fixed point in closed form: P (1 - e^(-D/tau)) e^(-r/tau) / (1 - e^(-(D + r)/tau))
-    assert s == pytest.approx(cold_end / (1 - np.exp(-(run + rest) / tau)), rel=1e-9)
+        s = one_run(s) * np.exp(-rest / (r_th * cap))
+    q = float((current * current).sum() * dt)
+    for begin in (0.0, 30.0):
+        res = pd.DataFrame({"drive_lf_current_sq_time": [q], "drive_lf_winding_temp_end": [t_amb + one_run(begin)]})
+        got = _hot_start(res, ("drive_lf",), c, np.array([begin]), run, rest)[0]
+        assert got == pytest.approx(s, rel=1e-4), (begin, got, s)
+    cold = pd.DataFrame({"drive_lf_current_sq_time": [q], "drive_lf_winding_temp_end": [t_amb + one_run(0.0)]})
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr("batchveh.model.motors.COPPER_TEMPCOEF", 0.0)
+        # measured 3.2 K low of 31.7 at duty 1, 0.53 of 12.4 at 0.5, 0.025 of 2.65 at 0.2: 50x the bound above
+        assert s - _hot_start(cold, ("drive_lf",), c, np.array([0.0]), run, rest)[0] > 5e-3 * s
 
 
 def test_a_duty_cycle_is_screened_on_the_whole_cycle_and_each_segment():

@@ -487,14 +487,34 @@ def load_battery(path: str | Path) -> Battery:
     return from_mapping(Battery, keep, f"{path}: battery")
 
 
-def _hot_start(gap: np.ndarray, duration: float, tau: float, rest: float = 0.0) -> np.ndarray:
-    """The change of start rise that closes `gap` = end(s) exp(-rest / tau) - s (runs repeated with `rest` s at
-    standstill between them start where the last one, cooled over the rest, left off), one Newton step on the
-    linear one-node model: a start rise s decays as s exp(-t / tau), so end(s) ~ end(0) + s exp(-duration / tau),
-    and from s = 0 the step lands on end(0) e / (1 - exp(-(duration + rest) / tau)), e = exp(-rest / tau)."""
-    if tau <= 0:
-        return np.zeros_like(gap)
-    return gap / (1.0 - np.exp(-(duration + rest) / tau))
+def _hot_start(res: pd.DataFrame, names: tuple[str, ...], c: dict, start: np.ndarray, duration: float, rest: float):
+    """Per variant, the start rise (K above ambient) at which a run repeated back to back, `rest` s at standstill
+    between runs, ends where it started: the fixed point of the one-node winding's run-to-run map, in closed form
+    from one run `res` that started at `start`, for the hottest of the motors `names` (constants `c`, resolved).
+
+    Over a run the rise s obeys C ds/dt = i^2 R (1 + alpha (T_a + s - 25)) - s / R_T: linear in s, so the run maps
+    its start onto its end as end = Phi start + Gamma, with Phi = exp((alpha R Q - D / R_T) / C), Q the integral of
+    i^2 over the run (`<motor>_current_sq_time`, every step) and D its duration; Gamma = end - Phi start from the
+    run itself. The rest cools by E = exp(-rest / tau). Back to back: s = E (Phi s + Gamma), so
+    s = E Gamma / (1 - E Phi) (a winding whose copper loss grows faster with heat than it sheds runs away: inf).
+    Exact where the current does not depend on the temperature, the drive passing MuJoCo the voltage that gives
+    the asked current; at its voltage line the hot winding carries a little less, and the next run says how much
+    (its residual). No thermal model: 0."""
+    from batchveh.model.motors import COPPER_TEMPCOEF
+
+    if c["t_T"] <= 0 or c["C"] <= 0:
+        return np.zeros(len(res))
+    e = np.exp(-rest / c["t_T"])
+    out = np.zeros(len(res))
+    for m in names:
+        q = res[f"{m}_current_sq_time"].to_numpy(float)
+        end = res[f"{m}_winding_temp_end"].to_numpy(float) - c["T_amb"]
+        phi = np.exp((COPPER_TEMPCOEF * c["R"] * q - duration / c["R_T"]) / c["C"])
+        gamma = end - phi * start
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = np.where(e * phi < 1.0, e * gamma / (1.0 - e * phi), np.inf)
+        out = np.maximum(out, np.nan_to_num(s, nan=0.0))
+    return np.maximum(out, 0.0)
 
 
 def in_loop(
@@ -506,7 +526,7 @@ def in_loop(
     steer: str,
     share: float = 0.99,
     hot: bool = True,
-    iterations: int = 2,
+    iterations: int = 1,
     battery: Battery | None = None,
     backend: str | None = None,
     stop_at_first: bool = True,
@@ -532,9 +552,10 @@ def in_loop(
     not be simulated (`not_simulated`): it is counted in the row's `not_simulated`, never as a reason, and the
     coverage is over the variants simulated.
 
-    With `hot`, a candidate runs first from ambient, then `iterations` times from the start rise that would
-    make its run end where it started (`_hot_start` from the previous run's end, each drive and steering
-    winding at its group's hottest): the thermal state of back-to-back runs. The row gives the median start
+    With `hot`, a candidate runs first from ambient, then `iterations` times from the start rise that makes its
+    run end where it started (`_hot_start`: the one-node winding's back-to-back fixed point in closed form from
+    the previous run, each drive and steering group at its hottest winding): the thermal state of back-to-back
+    runs, in two runs. The row gives the median start
     rise and the largest |end - start| left (K). `stop_at_first`: stop at the first candidate that covers.
     `backend`: None for 'mujoco', or 'warp' (MJX's JAX implementation has no dcmotor)."""
     import dataclasses
@@ -571,6 +592,7 @@ def in_loop(
         engine = make_engine(name_of, spec.scenario, cfg, None, len(df))
         start = {"motors.drive_start_rise": np.zeros(len(df)), "motors.steer_start_rise": np.zeros(len(df))}
         taus = {"motors.drive_start_rise": c["t_T"], "motors.steer_start_rise": cs["t_T"]}
+        consts = {"motors.drive_start_rise": c, "motors.steer_start_rise": cs}
         ambient = {"motors.drive_start_rise": c["T_amb"], "motors.steer_start_rise": cs["T_amb"]}
         groups = {"motors.drive_start_rise": WHEELS, "motors.steer_start_rise": GROUPS["steer"]}
         runs = 1 + (iterations if hot else 0)
@@ -584,11 +606,8 @@ def in_loop(
                 for key in start
             }
             residual = max(float(np.max(np.abs(end[key] - start[key]))) for key in start)
-            if k < runs - 1:  # the next start: one Newton step towards end(s) = s
-                start = {
-                    key: np.maximum(start[key] + _hot_start(end[key] - start[key], duration, taus[key], rest), 0.0)
-                    for key in start
-                }
+            if k < runs - 1:  # the next start: the back-to-back fixed point, in closed form from this run
+                start = {key: _hot_start(res, groups[key], consts[key], start[key], duration, rest) for key in start}
         # a variant whose run failed a physics check (or diverged) says nothing of the motor: apart, never a reason
         diverged = res["status_code"].to_numpy() == 1
         lost = not_simulated(res)
