@@ -2,8 +2,8 @@
 hottest winding over its last run in the loop (the thermal verdict's temperature), from both, on three vehicles
 unlike each other. MuJoCo C on this machine.
 
-    python validation/hot_start.py record BASE.json     # on the code that runs the loop three times
-    python validation/hot_start.py compare BASE.json    # on this code: writes validation/results/hot_start.json
+    PYTHONPATH=OLD python validation/hot_start.py record BASE.json  # OLD: a checkout of the three runs (c6aa6fe)
+    python validation/hot_start.py compare BASE.json                # this code: validation/results/hot_start.json
 
 Each case: the spec's variants (its first --limit), the drive and steering motor the size command chose there.
 """
@@ -61,8 +61,11 @@ def main() -> None:
     ap.add_argument("mode", choices=["record", "compare"])
     ap.add_argument("base")
     args = ap.parse_args()
+    import batchveh
+
     got = {name: measure(name) for name in CASES}
-    commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
+    code = Path(batchveh.__file__).resolve().parent.parent  # the checkout whose batchveh ran (PYTHONPATH may differ)
+    commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=code, capture_output=True, text=True).stdout.strip()
     if args.mode == "record":
         Path(args.base).write_text(json.dumps({"commit": commit, "cases": got}))
         return
