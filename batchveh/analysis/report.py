@@ -319,7 +319,7 @@ def misses(ax, s: Sizing, name: str) -> None:
     ax.set_xlabel(x)
     ax.set_ylabel(y or "")
     ax.set_title(f"{name}: what it misses in the loop", fontsize=9)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=3)  # below: no point hidden
 
 
 def worst_trace(axes, s: Sizing) -> None:
