@@ -459,6 +459,17 @@ def test_the_hot_start_at_a_duty_is_the_cycles_steady_state(duty):
         assert s - _hot_start(cold, ("drive_lf",), c, np.array([0.0]), run, rest)[0] > 5e-3 * s
 
 
+def test_a_runaway_winding_starts_where_one_run_repeated_would():
+    """A winding whose copper loss grows faster with heat than it sheds (alpha R Q / C = 0.0039 x 1.2 x 1e4 / 5 =
+    9.4 > D / (R_T C) = 0.33) has no back-to-back fixed point: the next run starts where this one ended, cooled
+    over the rest (here none: 175 K), not at an infinite rise; a run that diverged (NaN) starts cold."""
+    from batchveh.analysis.motors import _hot_start
+
+    c = {"R": 1.2, "R_T": 6.0, "C": 5.0, "t_T": 30.0, "T_amb": 25.0}
+    res = pd.DataFrame({"drive_lf_current_sq_time": [1e4, np.nan], "drive_lf_winding_temp_end": [200.0, np.nan]})
+    np.testing.assert_array_equal(_hot_start(res, ("drive_lf",), c, np.zeros(2), 10.0, 0.0), [175.0, 0.0])
+
+
 def test_a_duty_cycle_is_screened_on_the_whole_cycle_and_each_segment():
     """A mission's rows: its steady window (the usual columns) fits the DC motor (0.8 N m/A, 4 A, no-load 24 rad/s
     at the wheel, the gearhead's input 400 rad/s = 20 at the wheel) on every row; the cycle does not. Row 0: a

@@ -496,7 +496,8 @@ def _hot_start(res: pd.DataFrame, names: tuple[str, ...], c: dict, start: np.nda
     its start onto its end as end = Phi start + Gamma, with Phi = exp((alpha R Q - D / R_T) / C), Q the integral of
     i^2 over the run (`<motor>_current_sq_time`, every step) and D its duration; Gamma = end - Phi start from the
     run itself. The rest cools by E = exp(-rest / tau). Back to back: s = E (Phi s + Gamma), so
-    s = E Gamma / (1 - E Phi) (a winding whose copper loss grows faster with heat than it sheds runs away: inf).
+    s = E Gamma / (1 - E Phi) (a winding whose copper loss grows faster with heat than it sheds runs away: it has
+    none, and the run repeated once, E end, stands in; its heat fails it anyway).
     Exact where the current does not depend on the temperature, the drive passing MuJoCo the voltage that gives
     the asked current; at its voltage line the hot winding carries a little less, and the next run says how much
     (its residual). No thermal model: 0."""
@@ -511,9 +512,9 @@ def _hot_start(res: pd.DataFrame, names: tuple[str, ...], c: dict, start: np.nda
         end = res[f"{m}_winding_temp_end"].to_numpy(float) - c["T_amb"]
         phi = np.exp((COPPER_TEMPCOEF * c["R"] * q - duration / c["R_T"]) / c["C"])
         gamma = end - phi * start
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s = np.where(e * phi < 1.0, e * gamma / (1.0 - e * phi), np.inf)
-        out = np.maximum(out, np.nan_to_num(s, nan=0.0))
+        with np.errstate(divide="ignore", invalid="ignore"):  # a runaway has no fixed point: the run repeated once
+            s = np.where(e * phi < 1.0, e * gamma / (1.0 - e * phi), e * end)
+        out = np.maximum(out, np.nan_to_num(s, nan=0.0, posinf=0.0, neginf=0.0))
     return np.maximum(out, 0.0)
 
 
