@@ -312,7 +312,10 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
     values = {k: float(df[k].iloc[worst]) for k in spec.params if np.issubdtype(df[k].dtype, np.number)}
     # its own hot start: back to back, a run ends where it started (in_loop's last run, within its residual)
     ends = d[[f"drive_{c}_winding_temp_end" for c in ("lf", "rf", "lr", "rr")]].max(axis=1).to_numpy()
-    rise = max(float(ends[worst]) - cat[hottest].resolved()["T_amb"], 0.0)
+    c = cat[hottest].resolved()
+    rest = spec.stats_config().n_steps * float(spec.scenario.time_step) * (1.0 / spec.duty - 1.0)
+    cooled = np.exp(-rest / c["t_T"]) if c["t_T"] > 0 else 0.0  # over the rest between runs, at a duty below 1
+    rise = max(float(ends[worst]) - c["T_amb"], 0.0) * cooled
     reasons = [r for r in IN_LOOP_REASONS if bool(d[f"fails_{r}"].iloc[worst])]
     reasons += [f"steering {r}" for r in STEER_REASONS if bool(d[f"steer_fails_{r}"].iloc[worst])]
     worst_note = f"{hottest} misses it: {', '.join(reasons)}" if reasons else f"{hottest} covers it"

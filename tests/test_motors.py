@@ -185,11 +185,11 @@ def test_a_mission_span_is_screened_on_its_own_rms_peak_and_peak_speed():
     assert list(need.speed) == [10.0, 22.0] and list(need.rms) == [2.0, 3.3]
 
 
-def _wheels_frame(span: str, wheels: list[dict]) -> pd.DataFrame:
-    """One row per entry of `wheels` ({wheel: (peak_lp, drive_peak_lp, speed_peak)}, the others 0 N m at
+def _wheels_frame(span: str, wheels: list[dict], names=WHEELS) -> pd.DataFrame:
+    """One row per entry of `wheels` ({motor: (peak_lp, drive_peak_lp, speed_peak)}, the others 0 N m at
     10 rad/s), for `span`, and a mission span that fits (2 N m RMS, 3 N m peak at 10 rad/s)."""
     cols = {}
-    for m in WHEELS:
+    for m in names:
         got = [w.get(m, (0.0, 0.0, 10.0)) for w in wheels]
         cols[f"{span}_{m}_rms"] = [0.5] * len(wheels)
         cols[f"{span}_{m}_peak_lp"], cols[f"{span}_{m}_drive_peak_lp"], cols[f"{span}_{m}_speed_peak"] = zip(
@@ -223,6 +223,16 @@ def test_a_duty_cycles_voltage_is_read_wheel_by_wheel_on_the_torque_that_drives(
     old = df.drop(columns=[c for c in df if c.endswith("_drive_peak_lp")])
     _, _, failing = screen(old, {"dc-free": free}, share=1.0, span="mission")
     assert list(failing["dc-free"].index) == [0, 1, 2, 3]
+    # --span on the one segment reads it the same way
+    _, _, failing = screen(df, {"dc-free": free}, share=1.0, span="seg1_stop")
+    assert list(failing["dc-free"].index) == [2]
+    # a steering motor is judged on its time at the line, not on a distance it may fall behind: row 3's 24.4 V
+    # at its full peak rate fails it
+    steer = [{m.replace("drive", "steer"): v for m, v in w.items()} for w in wheels]
+    names = tuple(m.replace("drive", "steer") for m in WHEELS)
+    both = pd.concat([_wheels_frame("seg1_stop", [{}] * 4), _wheels_frame("seg1_stop", steer, names)], axis=1)
+    _, _, failing = screen(both, {"dc-free": free}, share=1.0, group="steer", span="mission")
+    assert list(failing["dc-free"].index) == [2, 3]
 
 
 def test_the_screen_counts_a_drive_over_the_variants_judged():

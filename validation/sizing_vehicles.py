@@ -137,7 +137,11 @@ def main() -> None:
     Path(args.json or JSON).write_text(
         json.dumps(
             {
-                "what": __doc__.split("\n\n")[0],
+                "what": (
+                    "Sizing against a duty cycle (issue 54): `python -m batchveh.size` on three missions, on MuJoCo C."
+                    if set(got) <= set(MISSIONS)
+                    else __doc__.split("\n\n")[0]
+                ),
                 "date": str(date.today()),
                 "commit": subprocess.run(
                     ["git", "rev-parse", "HEAD"], cwd=ROOT, capture_output=True, text=True

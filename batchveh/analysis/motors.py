@@ -313,6 +313,9 @@ def screen(
     for name, motor in catalogue.items():
         c = motor.resolved(name)
         res = screen_one(need, motor, armature=armature, accel=accel, duty=duty, ramp=ramp)
+        if span not in (None, "mission") and f"{span}_{GROUPS[group][0]}_drive_peak_lp" in df:  # one segment: its
+            res["voltage"] = _segment_voltage(df, group, span, c) > c["V"]  # voltage as the mission's segments read it
+            res["fits"] = ~res[list(REASONS)].any(axis=1)
         where = _segments(df, group, segments, motor, res) if segments else _where(res, span or "window")
         row = {
             "motor": name,
@@ -388,13 +391,14 @@ def _segment_voltage(df: pd.DataFrame, group: str, seg: str, c: dict[str, float]
     wheel's own peak speed: i R + K N w, the largest over the wheels. Still an upper bound (the two peaks need not
     fall at one instant), but it no longer pairs one wheel's torque with another's speed, or a stop's braking with
     the speed it brakes from. Counted as the loop counts a voltage miss: a drive at its voltage line is short only
-    where it falls more than SHORT_SHARE behind its speed (`segment_shortfall`), so the speed is taken SHORT_SHARE
-    below the peak."""
+    where it falls more than SHORT_SHARE behind its speed (`segment_shortfall`), so a drive's speed is taken
+    SHORT_SHARE below the peak (a steering motor's at its peak: the loop judges it on its time at the line)."""
     bound = bound_at_wheel(c)
+    forgiven = SHORT_SHARE if group == "drive" else 0.0
     out = np.zeros(len(df))
     for m in GROUPS[group]:
         torque = np.minimum(df[f"{seg}_{m}_drive_peak_lp"].abs().to_numpy(), bound)
-        speed = (1.0 - SHORT_SHARE) * df[f"{seg}_{m}_speed_peak"].abs().to_numpy()
+        speed = (1.0 - forgiven) * df[f"{seg}_{m}_speed_peak"].abs().to_numpy()
         out = np.maximum(out, torque / (c["eta"] * c["N"] * c["K"]) * c["R"] + c["K"] * c["N"] * speed)
     return out
 
@@ -494,8 +498,9 @@ def _hot_start(res: pd.DataFrame, names: tuple[str, ...], c: dict, start: np.nda
 
     Over a run the rise s obeys C ds/dt = i^2 R (1 + alpha (T_a + s - 25)) - s / R_T: linear in s, so the run maps
     its start onto its end as end = Phi start + Gamma, with Phi = exp((alpha R Q - D / R_T) / C), Q the integral of
-    i^2 over the run (`<motor>_current_sq_time`, every step) and D its duration; Gamma = end - Phi start from the
-    run itself. The rest cools by E = exp(-rest / tau). Back to back: s = E (Phi s + Gamma), so
+    i^2 over the steps whose heat `<motor>_winding_temp_end` holds (`<motor>_current_sq_time`: every step but the
+    last) and D their duration (the run's less one step); Gamma = end - Phi start from the run itself. The rest
+    cools by E = exp(-rest / tau). Back to back: s = E (Phi s + Gamma), so
     s = E Gamma / (1 - E Phi) (a winding whose copper loss grows faster with heat than it sheds runs away: it has
     none, and the run repeated once, E end, stands in; its heat fails it anyway).
     Exact where the current does not depend on the temperature, the drive passing MuJoCo the voltage that gives
@@ -590,6 +595,7 @@ def in_loop(
         cfg = run_spec.stats_config()
         duration = cfg.n_steps * float(spec.scenario.time_step)
         rest = duration * (1.0 / duty - 1.0)
+        heated = duration - float(spec.scenario.time_step)  # winding_temp_end holds every step's heat but the last
         engine = make_engine(name_of, spec.scenario, cfg, None, len(df))
         start = {"motors.drive_start_rise": np.zeros(len(df)), "motors.steer_start_rise": np.zeros(len(df))}
         taus = {"motors.drive_start_rise": c["t_T"], "motors.steer_start_rise": cs["t_T"]}
@@ -608,7 +614,7 @@ def in_loop(
             }
             residual = max(float(np.max(np.abs(end[key] - start[key]))) for key in start)
             if k < runs - 1:  # the next start: the back-to-back fixed point, in closed form from this run
-                start = {key: _hot_start(res, groups[key], consts[key], start[key], duration, rest) for key in start}
+                start = {key: _hot_start(res, groups[key], consts[key], start[key], heated, rest) for key in start}
         # a variant whose run failed a physics check (or diverged) says nothing of the motor: apart, never a reason
         diverged = res["status_code"].to_numpy() == 1
         lost = not_simulated(res)

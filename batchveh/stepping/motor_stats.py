@@ -55,8 +55,8 @@ _PER_MOTOR = {
     "current_peak": ("A", "peak |motor current| over the run after the settle"),
     "current_sq_time": (
         "A^2 s",
-        "integral of the squared motor current over every step, the settle too: times R, the winding's copper loss "
-        "at 25 deg C (the hot start's closed form reads it)",
+        "integral of the squared motor current over every step but the last, the settle too (the steps whose heat "
+        "winding_temp_end holds): times R, the winding's copper loss at 25 deg C (the hot start's closed form)",
     ),
     "winding_temp_peak": ("deg C", "peak winding temperature over the run (one-node thermal model)"),
     "winding_temp_end": ("deg C", "winding temperature the run's last step ran with"),
@@ -167,6 +167,7 @@ def init(batch: tuple[int, ...], xp=np, dtype=None) -> dict[str, Any]:
         "n_run": z(),
         "i_sumsq": z(8),
         "i_sq_dt": z(8),  # over every step, the settle too (the winding heats through it)
+        "i_sq_last": z(8),  # the last step's share of it (winding_temp_end ran before that step's heat)
         "i_peak": z(8),
         "t_peak": z(8, fill=-np.inf),
         "t_end": z(8),
@@ -197,6 +198,7 @@ def update(c: dict[str, Any], e: dict[str, Any], tau, w, wr, dt: float, xp=np) -
     out["n_run"] = c["n_run"] + wr.sum()
     out["i_sumsq"] = c["i_sumsq"] + (wk * cur * cur).sum(-2)
     out["i_sq_dt"] = c["i_sq_dt"] + (cur * cur).sum(-2) * dt
+    out["i_sq_last"] = cur[..., -1, :] * cur[..., -1, :] * dt
     out["i_peak"] = xp.maximum(c["i_peak"], xp.where(run[:, None], xp.abs(cur), 0.0).max(-2))
     out["T"] = temps[..., -1, :]
     out["t_peak"] = xp.maximum(c["t_peak"], xp.where(run[:, None], temps, -np.inf).max(-2))
@@ -233,7 +235,7 @@ def finalize(c: dict[str, Any], n_window, speed_err, speed_ref, xp=np) -> dict[s
     per = {
         "current_rms": xp.sqrt(c["i_sumsq"] / xp.maximum(n_window, 1.0)[..., None]),
         "current_peak": c["i_peak"],
-        "current_sq_time": c["i_sq_dt"],
+        "current_sq_time": c["i_sq_dt"] - c["i_sq_last"],
         "winding_temp_peak": c["t_peak"],
         "winding_temp_end": c["t_end"],
         "energy_drawn": c["drawn"],
