@@ -79,6 +79,12 @@ def bound_at_wheel(c: dict[str, float], none: float = np.inf) -> float:
     return c["eta"] * c["N"] * c["K"] * c["i_max"] if c["i_max"] > 0 else none
 
 
+def terminal_voltage(torque: Any, speed: Any, c: dict[str, float]) -> Any:
+    """The voltage a motor needs (V) to give `torque` (N m at the wheel) at `speed` (rad/s at the wheel), from its
+    `resolved()` constants: i R + K N w, with i = torque / (eta N K)."""
+    return torque / (c["eta"] * c["N"] * c["K"]) * c["R"] + c["K"] * c["N"] * speed
+
+
 def best_in_loop(table: pd.DataFrame) -> str | None:
     """The motor of an `in_loop` table with the highest coverage (the last run of equals); None for no rows."""
     return str(table.sort_values("coverage", kind="stable")["motor"].iloc[-1]) if len(table) else None
@@ -229,7 +235,7 @@ def screen_one(
     w_motor = need["speed"] * n
     out = pd.DataFrame(index=need.index)
     out["current_rms"], out["current_peak"], out["motor_speed"] = i_rms, i_peak, w_motor
-    out["voltage_peak"] = np.minimum(window, bound) / (eta * n * k) * r + k * w_motor
+    out["voltage_peak"] = terminal_voltage(np.minimum(window, bound), need["speed"], c)
     heat = c["R_T"] * i_rms**2 * r
     denominator = 1 - heat * COPPER_TEMPCOEF
     rise = np.where(denominator > 0, heat * (1 + COPPER_TEMPCOEF * (c["T_amb"] - REFERENCE_TEMP)) / denominator, np.inf)
@@ -399,7 +405,7 @@ def _segment_voltage(df: pd.DataFrame, group: str, seg: str, c: dict[str, float]
     for m in GROUPS[group]:
         torque = np.minimum(df[f"{seg}_{m}_drive_peak_lp"].abs().to_numpy(), bound)
         speed = (1.0 - forgiven) * df[f"{seg}_{m}_speed_peak"].abs().to_numpy()
-        out = np.maximum(out, torque / (c["eta"] * c["N"] * c["K"]) * c["R"] + c["K"] * c["N"] * speed)
+        out = np.maximum(out, terminal_voltage(torque, speed, c))
     return out
 
 
@@ -598,9 +604,7 @@ def in_loop(
         heated = duration - float(spec.scenario.time_step)  # winding_temp_end holds every step's heat but the last
         engine = make_engine(name_of, spec.scenario, cfg, None, len(df))
         start = {"motors.drive_start_rise": np.zeros(len(df)), "motors.steer_start_rise": np.zeros(len(df))}
-        taus = {"motors.drive_start_rise": c["t_T"], "motors.steer_start_rise": cs["t_T"]}
         consts = {"motors.drive_start_rise": c, "motors.steer_start_rise": cs}
-        ambient = {"motors.drive_start_rise": c["T_amb"], "motors.steer_start_rise": cs["T_amb"]}
         groups = {"motors.drive_start_rise": WHEELS, "motors.steer_start_rise": GROUPS["steer"]}
         runs = 1 + (iterations if hot else 0)
         for k in range(runs):
@@ -608,8 +612,8 @@ def in_loop(
             res = pd.DataFrame({key: np.asarray(v) for key, v in named(cols).items()})
             # the next run starts from this one's end, cooled over the rest between runs
             end = {
-                key: (res[[f"{m}_winding_temp_end" for m in groups[key]]].max(axis=1).to_numpy() - ambient[key])
-                * (np.exp(-rest / taus[key]) if taus[key] > 0 else 0.0)
+                key: (res[[f"{m}_winding_temp_end" for m in groups[key]]].max(axis=1).to_numpy() - consts[key]["T_amb"])
+                * (np.exp(-rest / consts[key]["t_T"]) if consts[key]["t_T"] > 0 else 0.0)
                 for key in start
             }
             residual = max(float(np.max(np.abs(end[key] - start[key]))) for key in start)
@@ -630,8 +634,8 @@ def in_loop(
         # named by a mission's segment it fell behind in, or whose servo speed passed the no-load speed (as the
         # screen names it); else the cycle's ("mission"), or a straight line's window
         fast = _first_segment_above(df.reset_index(drop=True), c["V"] / (c["K"] * c["N"]))
-        span = behind.where(behind != "", fast.where(why["speed"] & (fast != ""), "")).replace("", None)
-        where = _where(why, span.fillna("mission" if cycle[0] in df else "window"))
+        span = behind.where(behind != "", fast.where(why["speed"], ""))
+        where = _where(why, span.where(span != "", "mission" if cycle[0] in df else "window"))
         why.loc[lost, :] = False
         steer_why = steer_reasons(res, cat[steer], cs, duty)
         steer_why.loc[lost, :] = False

@@ -163,6 +163,12 @@ def _offset(p):
     return p["wheel.y_cg"] - p["chassis.width"] / 2
 
 
+def _wheel_from_axis(p):
+    """(4,) x and y of each wheel centre from its steering axis at zero steer, m: a trail along the vehicle where
+    the wheel is not on its axis's line, the offset outboard."""
+    return _SX * (p["wheel.x_cg"] - p["chassis.length"] / 2), _SY * _offset(p)
+
+
 def axis_roll(p, steer_rate):
     """Wheel speeds (4,) in rad/s that roll each wheel centre about its offset steering axis as the
     steering turns at `steer_rate` (4,) rad/s: the centre moves at offset * steer_rate."""
@@ -259,8 +265,7 @@ def ackermann_rolling(p, curvature, speed_kmh, alpha, alpha_rate):
     alpha_rate 0 this is ackermann_targets' speeds; with no trail (dx 0) the yaw is the steady one."""
     ax, ay = _axes(p)
     xc = -p["wheel.x_cg"]
-    dx = _SX * (p["wheel.x_cg"] - p["chassis.length"] / 2)
-    dy = _SY * _offset(p)
+    dx, dy = _wheel_from_axis(p)
     v_r = speed_kmh / 3.6 / jnp.hypot(xc * curvature, 1.0)
     c, s = jnp.cos(alpha), jnp.sin(alpha)
     wx, wy = ax + dx * c - dy * s, ay + dx * s + dy * c
@@ -280,8 +285,7 @@ def _rolling_about(p, ux, uy, rate, scale=1.0):
     h = (cos a, sin a): the centre's velocity about the centre lies along h when (u + R(a) d).h = 0,
     i.e. u.h = -dx, so a = atan2(uy, ux) +- arccos(-dx / |u|), the root nearer straight ahead.
     The wheel then rolls at rate (z x (u + R(a) d)).h / r."""
-    dx = _SX * (p["wheel.x_cg"] - p["chassis.length"] / 2) * scale
-    dy = _SY * _offset(p) * scale
+    dx, dy = (d * scale for d in _wheel_from_axis(p))
     theta = jnp.arctan2(uy, ux)
     half = jnp.arccos(jnp.clip(-dx / jnp.hypot(ux, uy), -1.0, 1.0))
     a1, a2 = (jnp.arctan2(jnp.sin(theta + k * half), jnp.cos(theta + k * half)) for k in (1.0, -1.0))
