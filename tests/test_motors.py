@@ -517,3 +517,21 @@ def test_a_segment_the_loop_falls_behind_in_is_named():
     loop["seg2_stop_distance"] = [0.0, 0.0]
     assert list(motors.segment_shortfall(servo, loop)) == ["seg1_climb", ""]
     assert list(motors.segment_shortfall(pd.DataFrame({"x": [1.0]}), pd.DataFrame({"x": [1.0]}))) == [""]
+
+
+def test_the_current_integral_covers_the_steps_the_end_temperature_holds():
+    """`current_sq_time` (the hot start's Q) is the integral of i^2 over every step but the last, in two blocks:
+    `winding_temp_end` is the temperature the last step ran with, before that step's heat."""
+    from batchveh.stepping import motor_stats
+
+    rng = np.random.default_rng(1)
+    dt, cur = 0.01, rng.normal(0.0, 2.0, (1, 7, 8))  # 1 variant x 7 steps x 8 motors, A
+    c = motor_stats.init((1,))
+    for block in (slice(0, 4), slice(4, 7)):
+        n = block.stop - block.start
+        e = {"current": cur[:, block], "power": np.zeros((1, n, 8)), "temp": np.full((1, n, 8), 25.0),
+             "at_v": np.zeros((1, n, 8), bool), "at_i": np.zeros((1, n, 8), bool), "joint": np.zeros((1, n, 8)),
+             "bound": np.full((1, n, 8), np.inf)}  # fmt: skip
+        c = motor_stats.update(c, e, np.zeros((1, n, 8)), np.ones(n), np.ones(n), dt)
+    out = motor_stats.finalize(c, np.array([7.0]), np.zeros((1, 4)), np.ones((1, 4)))
+    np.testing.assert_allclose(out["drive_rf_current_sq_time"], (cur[:, :6, 1] ** 2).sum(-1) * dt, rtol=1e-12)
