@@ -152,6 +152,15 @@ def not_run(table: Any, runs: list[str], ran: list[str], chosen: str | None, bes
     return out
 
 
+def batch_of(pending: list[str], best: str | None) -> list[str]:
+    """The drives of the loop's next batch (run as one sweep, `in_loop`), from `pending` (smallest first): up
+    to the screen's choice `best` where it is pending (the one below it and it, as the screen expects it to
+    cover), else all of them (the screen has no choice, or the loop found it short: it cannot tell which
+    covers). The loop reads the batch in order and stops at the first that covers, so its verdicts are those of
+    one candidate at a time; a batch's drives after the first that covers ran for nothing."""
+    return pending[: pending.index(best) + 1] if best in pending else list(pending)
+
+
 def candidates(screen_table: Any, best: str | None) -> list[str]:
     """The motors to run in the loop, smallest first: from the one next below the screen's choice (the screen is
     conservative: the loop may take it) upwards; without a screen choice, those within NEAR of the best screen
@@ -161,6 +170,63 @@ def candidates(screen_table: Any, best: str | None) -> list[str]:
         top = screen_table["coverage"].max()
         return [m for m, c in zip(ranked, screen_table["coverage"], strict=True) if c >= top - NEAR]
     return ranked[max(ranked.index(best) - 1, 0) :]
+
+
+def sweep_runner(folder: Path, catalogue: str, backend: str | None, executor: Any = None) -> Any:
+    """The loop's Runner (`batchveh.analysis.motors.Runner`): each run a sweep of its table (method zip) in
+    `folder`/<its inputs' digest>, on `backend`, through `executor(spec, backend, n)` (a fresh executor per run,
+    or None: this process), resumed where it was left: a killed session runs again only the chunks not
+    written. The digest covers the table, the vehicle, the scenario, the catalogue's bytes and the backend,
+    so a run whose inputs changed never reads another's results."""
+    import hashlib
+
+    import numpy as np
+
+    from batchveh.stepping.stats import STATUS
+    from batchveh.sweep import run_sweep
+    from batchveh.sweeping.results import load
+
+    codes = {v: k for k, v in STATUS.items()}
+    cat_bytes = Path(catalogue).read_bytes()
+
+    def run(run_spec: Any, table: dict) -> Any:
+        h = hashlib.sha256(cat_bytes)
+        h.update(repr((run_spec.vehicle, run_spec.scenario, run_spec.window, run_spec.lowpass_s, backend)).encode())
+        for k in sorted(table):
+            h.update(k.encode())
+            h.update(np.ascontiguousarray(table[k], float).tobytes())
+        digest = h.hexdigest()
+        n = len(next(iter(table.values())))
+        where = folder / digest[:16]
+        loop_spec = dataclasses.replace(
+            run_spec,
+            method="zip",
+            params=dict(table),
+            n=None,
+            output=str(where),
+            raw={
+                **run_spec.raw,
+                "in_loop": {
+                    "inputs_sha256": digest,
+                    "drive": run_spec.vehicle.motors.drive,
+                    "steer": run_spec.vehicle.motors.steer,
+                },
+            },  # fmt: skip
+        )
+        run_sweep(
+            loop_spec,
+            out=where,
+            backend=backend,
+            resume=True,
+            progress=False,
+            max_variants=n,
+            executor=executor(loop_spec, n) if executor is not None else None,
+        )
+        res = load(where)
+        res["status_code"] = res["status"].map(codes).to_numpy()
+        return res.drop(columns=["variant", "status", *table])
+
+    return run
 
 
 def trace(spec: Any, catalogue: str, drive: str, steer: str, values: dict[str, float], rise: float) -> Any:
@@ -207,8 +273,10 @@ def trace(spec: Any, catalogue: str, drive: str, steer: str, values: dict[str, f
     return t
 
 
-def size(args: Any) -> tuple[Any, dict[str, Path]]:
-    """The three phases and the report (the module's docstring); returns (the Sizing, the report's paths)."""
+def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
+    """The three phases and the report (the module's docstring); returns (the Sizing, the report's paths).
+    `executor(spec, n)`: a fresh executor for each sweep (the servo's and each run in the loop), or None: this
+    process (`main` makes it from --executor)."""
     import platform
 
     import mujoco
@@ -238,7 +306,15 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
     walls: dict[str, float] = {}
     t0 = time.perf_counter()
     try:
-        run_sweep(demand, out=out / "servo", backend=args.backend, resume=True, limit=args.limit, progress=False)
+        run_sweep(
+            demand,
+            out=out / "servo",
+            backend=args.backend,
+            resume=True,
+            limit=args.limit,
+            progress=False,
+            executor=executor(demand, n) if executor is not None else None,
+        )
     except ConfigError as err:
         raise ConfigError(
             f"{err} (the servo sweep's results in {out / 'servo'}: remove them or give another --out)"
@@ -264,31 +340,40 @@ def size(args: Any) -> tuple[Any, dict[str, Path]]:
     steer = args.steer or steering(steer_table, args.share)
     walls["screen"] = time.perf_counter() - t0
     runs = candidates(table, best)
-    bar.total = n * (1 + HOT_RUNS * len(runs))
     rows, detail, chosen, steer_rows = [], {}, None, []
     ranked_steer = list(steer_table["motor"])
+    from batchveh.engines import resolve_backend
+
+    looped = resolve_backend(args.backend or spec.backend)
+    looped = "mujoco" if looped == "mjx" else looped  # MJX's JAX implementation has no dcmotor: MuJoCo C runs it
+    runner = sweep_runner(out / "loop", args.catalogue, looped, executor)
     t0 = time.perf_counter()
-    i = 0
-    while i < len(runs):  # the drives smallest first; the steering confirmed on each run, walked up where it fails
-        name = runs[i]
-        bar.set_description(f"{spec.name}: in the loop, {name}, steering {steer}")
+    pending = list(runs)
+    while pending and chosen is None:  # the drives smallest first, a batch at a time (`batch_of`)
+        batch = batch_of(pending, best)
+        bar.total = bar.n + n * HOT_RUNS * len(batch)
+        bar.set_description(f"{spec.name}: in the loop, {', '.join(batch)}, steering {steer}")
         bar.refresh()
-        got, t, d = in_loop(
-            spec, df, args.catalogue, [name], steer=steer, share=args.share, backend=args.backend, duty=spec.duty
-        )
-        bar.update(n * HOT_RUNS)
-        steer_rows.append(t.assign(drive=name))
-        larger = ranked_steer[ranked_steer.index(steer) + 1 :]
-        if t["steer_coverage"].iloc[0] < args.share and args.steer is None and larger:
-            steer = larger[0]  # the steering fails on its own criteria: the next larger, the same drive again
-            bar.total += n * HOT_RUNS
-            continue
-        rows.append(t)
-        detail.update(d)
-        if got is not None:
-            chosen = got
-            break
-        i += 1
+        _, t, d = in_loop(
+            spec, df, args.catalogue, batch, steer=steer, share=args.share, duty=spec.duty, stop_at_first=False,
+            run=runner,
+        )  # fmt: skip
+        bar.update(n * HOT_RUNS * len(batch))
+        done = len(batch)
+        for j, name in enumerate(batch):  # read in order, as one candidate at a time would be
+            row = t.iloc[[j]].reset_index(drop=True)
+            steer_rows.append(row.assign(drive=name))
+            larger = ranked_steer[ranked_steer.index(steer) + 1 :]
+            if row["steer_coverage"].iloc[0] < args.share and args.steer is None and larger:
+                steer = larger[0]  # the steering fails on its own criteria: the next larger, from this drive again
+                done = j
+                break
+            rows.append(row)
+            detail[name] = d[name]
+            if row["coverage"].iloc[0] >= args.share:
+                chosen = name
+                break
+        pending = pending[done:]
     bar.total = bar.n
     bar.set_description(f"{spec.name}: report")
     bar.refresh()
@@ -409,6 +494,13 @@ def main(argv: list[str] | None = None) -> int:
         help="the span the screen reads: a mission's 'mission' (the default for a mission: the whole cycle, each "
         "segment checked on its own) or one segment's ('seg2_climb'); a straight line reads its steady window",
     )
+    parser.add_argument(
+        "--executor",
+        choices=("local", "ray", "gpus"),
+        help="as batchveh.sweep's, for the servo sweep and every run in the loop (each a sweep of its own in "
+        "OUT/loop, resumed: a killed session runs again only what it had not written)",
+    )
+    parser.add_argument("--address", help="with --executor ray: the cluster to join, as batchveh.sweep's")
     parser.add_argument("--limit", type=int, help="the first N variants only")
     parser.add_argument("--overwrite", action="store_true", help="replace a report in --out")
     parser.add_argument("--dry-run", action="store_true", help="estimate the whole run, then stop")
@@ -416,14 +508,27 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.limit is not None and args.limit < 1:
         parser.error(f"--limit: {args.limit!r} is not allowed; allowed: an integer >= 1")
+    if args.address is not None and args.executor != "ray":
+        parser.error("--address: needs --executor ray")
+    started_ray = False
     try:
         if args.dry_run:
             print(dry_run(args))
             return EXIT_OK
-        from batchveh.sweep import enable_compile_cache
+        from batchveh.sweep import enable_compile_cache, engine_settings, new_executor
+        from batchveh.sweeping.spec import load_spec
 
         enable_compile_cache()
-        s, paths = size(args)
+        backend = engine_settings(args.executor, args.backend, load_spec(args.spec))
+        if args.executor == "ray":
+            from batchveh.sweeping import cluster
+
+            started_ray = cluster.connect(args.address)
+
+        def executor(spec: Any, n: int) -> Any:
+            return new_executor(args.executor, spec, backend, n)
+
+        s, paths = size(args, executor)
     except ConfigError as err:
         print(f"error: {err}", file=sys.stderr)
         return EXIT_INPUT
@@ -434,8 +539,14 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {err.filename or args.spec}: {err.strerror or err}", file=sys.stderr)
         return EXIT_INPUT
     except KeyboardInterrupt:
-        print("\ninterrupted: the servo sweep's finished chunks are kept; run again to reuse them", file=sys.stderr)
+        print(
+            "\ninterrupted: the finished chunks (the servo sweep's, the loop's) are kept; run again to reuse them",
+            file=sys.stderr,
+        )
         return EXIT_INTERRUPTED
+    finally:
+        if started_ray:
+            cluster.disconnect()
     print(verdict_line(s, paths))
     return EXIT_OK
 

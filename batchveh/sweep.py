@@ -140,6 +140,43 @@ def init_warp_without_cuda() -> None:
             print(line, file=sys.stderr)
 
 
+def engine_settings(executor: str | None, backend: str | None, spec: SweepSpec) -> str:
+    """The process-wide settings the engines need, made once by a command line's `main` before JAX or Warp
+    starts (`executor`: --executor's value; `backend`: --backend's, or None for the spec's); returns the backend
+    resolved. The warp engine on several local GPUs shows JAX the first only (`gpus.own_gpu_only`), and Warp
+    starts without making a CUDA context of its own."""
+    from batchveh.engines import resolve_backend
+    from batchveh.sweeping import gpus
+
+    if executor != "ray" and gpus.own_gpu_only(backend or spec.backend):
+        import jax
+
+        jax.config.update("jax_cuda_visible_devices", "0")  # before JAX starts: see own_gpu_only
+    resolved = resolve_backend(backend or spec.backend)
+    if resolved == "warp" and executor != "ray":
+        init_warp_without_cuda()
+    return resolved
+
+
+def new_executor(
+    kind: str | None, spec: SweepSpec, backend: str, n: int, chunk_size: int | None = None
+) -> InProcess | RayExecutor | GpuProcesses | None:
+    """A fresh executor for one `run_sweep` (which closes it): --executor's `kind` ('ray': on the Ray cluster
+    this process joined, `cluster.connect`; 'gpus': one process per local GPU; 'local' or None: this process,
+    but the warp engine on several local GPUs where a second one pays, `gpus.automatic`)."""
+    from batchveh.sweeping import gpus
+
+    if kind == "ray":
+        from batchveh.sweeping import cluster
+
+        return cluster.RayExecutor()
+    if kind == "gpus":
+        return gpus.GpuProcesses()
+    if backend == "warp" and kind is None:  # every local GPU where a second one pays
+        return gpus.automatic(spec, backend, n, chunk_size)
+    return None
+
+
 def count_variants(spec: SweepSpec, limit: int | None = None, max_variants: int = MAX_VARIANTS) -> int:
     """The number of variants to run; ConfigError above `max_variants`."""
     n = len(spec.table())
@@ -454,29 +491,15 @@ def main(argv: list[str] | None = None) -> int:
         if args.plots and "://" in str(args.out or spec.output):
             raise ConfigError("--plots: figures are written to a local folder; give a local --out for them")
         enable_compile_cache()
-        from batchveh.engines import resolve_backend
         from batchveh.sweeping import gpus
 
-        if args.executor != "ray" and gpus.own_gpu_only(args.backend or spec.backend):
-            import jax
-
-            jax.config.update("jax_cuda_visible_devices", "0")  # before JAX starts: see own_gpu_only
-        backend = resolve_backend(args.backend or spec.backend)
-        if backend == "warp" and args.executor != "ray":
-            init_warp_without_cuda()
-        executor = None
+        backend = engine_settings(args.executor, args.backend, spec)
         if args.executor == "ray":
             from batchveh.sweeping import cluster
 
             started_ray = cluster.connect(args.address)
-            executor = cluster.RayExecutor()
-        elif args.executor == "gpus":
-            from batchveh.sweeping.gpus import GpuProcesses
-
-            executor = GpuProcesses()
-        elif backend == "warp" and args.executor is None:  # every local GPU where a second one pays
-            n = count_variants(spec, args.limit, args.max_variants)
-            executor = gpus.automatic(spec, backend, n, args.chunk_size)
+        n = count_variants(spec, args.limit, args.max_variants)
+        executor = new_executor(args.executor, spec, backend, n, args.chunk_size)
         if not isinstance(executor, gpus.GpuProcesses):
             prestart.release()  # the workers started ahead are not needed
         s = run_sweep(

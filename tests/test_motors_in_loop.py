@@ -253,3 +253,22 @@ def test_a_run_that_fails_its_physics_checks_is_counted_apart_never_as_a_reason(
     assert not d[[f"fails_{r}" for r in IN_LOOP_REASONS]].iloc[0].any()  # never a reason
     assert d[[f"fails_{r}" for r in IN_LOOP_REASONS]].iloc[1].any() and row["coverage"] == 0.0
     assert in_loop_lines(table)[0].endswith("; 1 variant could not be simulated: 1 chatter")
+
+
+def test_the_candidates_in_one_batch_equal_one_run_each(tmp_path):
+    """in_loop runs its candidates as one sweep over motors.drive (each pair's constants, gearhead, rotor and gains
+    its own). Each candidate's rows equal its own run alone, column by column: a motor's constants read from
+    another world's row, or the hot start of another candidate, would move them. The two motors differ in every
+    constant (torque constant, resistance, ratio, rotor), so a mix-up cannot pass."""
+    spec = _spec(tmp_path, total_time=3.0)
+    df = __import__("pandas").DataFrame({k: v for k, v in spec.params.items()})
+    _, table, together = in_loop(spec, df, CATALOGUE, [SMALL, BIG], steer=BIG, share=1.0, stop_at_first=False)
+    for name in (SMALL, BIG):
+        _, alone_table, alone = in_loop(spec, df, CATALOGUE, [name], steer=BIG, share=1.0)
+        a, b = together[name], alone[name]
+        assert list(a.columns) == list(b.columns)
+        for col in a.columns:
+            np.testing.assert_array_equal(a[col].to_numpy(), b[col].to_numpy(), err_msg=f"{name}: {col}")
+        row = table.set_index("motor").loc[name]
+        assert row["start_rise_median"] == alone_table["start_rise_median"].iloc[0] > 0
+    assert (together[SMALL]["drive_lf_rms"] != together[BIG]["drive_lf_rms"]).all()  # two motors, not one twice

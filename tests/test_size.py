@@ -160,3 +160,39 @@ def test_the_loop_starts_below_the_screens_choice():
     assert candidates(table, None) == ["c", "d"]  # within 5 points of the best coverage
     near = table.assign(coverage=[0.2, 0.96, 0.5, 0.93])
     assert candidates(near, None) == ["b", "d"]
+
+
+def test_the_loop_batches_up_to_the_screens_choice():
+    """The loop's first batch: the motor below the screen's choice and the choice; without a choice, or once
+    the choice has run short, every motor left."""
+    from batchveh.size import batch_of
+
+    assert batch_of(["a", "b", "c", "d"], "b") == ["a", "b"]
+    assert batch_of(["b", "c", "d"], "b") == ["b"]
+    assert batch_of(["c", "d"], "b") == ["c", "d"]
+    assert batch_of(["a", "b"], None) == ["a", "b"]
+
+
+def test_a_killed_session_resumes_from_its_finished_chunks(sized, tmp_path):
+    """The loop's runs are sweeps in OUT/loop, one folder per run's inputs. Run again (as after a kill) with
+    one part of a loop run gone: that chunk alone runs again, the others are read (their files untouched), and
+    the verdicts are the same rows."""
+    import shutil
+
+    out, args, _ = sized
+    again = tmp_path / "again"
+    shutil.copytree(out, again)
+    runs = sorted(p for p in (again / "loop").iterdir() if p.is_dir())
+    assert len(runs) >= 2  # from ambient, then from the hot start
+    parts = sorted(runs[-1].glob("part-*.parquet"))
+    kept = {p: p.stat().st_mtime_ns for p in sorted(runs[0].glob("part-*.parquet"))}
+    assert parts and kept
+    parts[0].unlink()
+    (again / "report.md").unlink()
+    before = pd.read_parquet(again / "verdicts.parquet")
+    argv = [a if a != str(out) else str(again) for a in args]
+    assert main(argv) == EXIT_OK
+    assert parts[0].exists()
+    assert {p: p.stat().st_mtime_ns for p in kept} == kept
+    after = pd.read_parquet(again / "verdicts.parquet")
+    pd.testing.assert_frame_equal(before, after)

@@ -38,6 +38,7 @@ worst of the four drive motors:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -529,6 +530,90 @@ def _hot_start(res: pd.DataFrame, names: tuple[str, ...], c: dict, start: np.nda
     return np.maximum(out, 0.0)
 
 
+Runner = Callable[[Any, dict], pd.DataFrame]
+"""How the loop's runs are run: (the run's SweepSpec, with the dcmotors; its table, name -> (n,) values: the
+spec's parameters, `motors.drive` (a catalogue index) where the batch holds several drives, and the two start
+rises) -> its results, a row per table row in order, `motor_stats.named`'s columns (status_code among them).
+`engine_runner` runs on one engine in this process; `batchveh.size` runs each as a sweep (executors, resume)."""
+
+
+def engine_runner(backend: str | None = None) -> Runner:
+    """A Runner on one engine in this process: MuJoCo C (None, 'mujoco') or MuJoCo Warp ('warp'; MJX's JAX
+    implementation has no dcmotor)."""
+    from batchveh.engines import make_engine, resolve_backend
+    from batchveh.stepping.batch import make_batch
+    from batchveh.stepping.motor_stats import named
+
+    name_of = resolve_backend(backend or "mujoco")
+
+    def run(run_spec: Any, table: dict) -> pd.DataFrame:
+        n = len(next(iter(table.values())))
+        engine = make_engine(name_of, run_spec.scenario, run_spec.stats_config(), None, n)
+        cols = engine.run(make_batch(run_spec.vehicle, run_spec.scenario, table))
+        return pd.DataFrame({key: np.asarray(v) for key, v in named(cols).items()})
+
+    return run
+
+
+def batches(cat: dict[str, Any], names: list[str]) -> list[list[str]]:
+    """`names` in order, cut into runs of motors that one compiled program holds: all with a thermal model or
+    none, all with a current limit or none (the model's sizes differ otherwise)."""
+    out: list[list[str]] = []
+    last = None
+    for name in names:
+        c = cat[name].resolved(name)
+        kind = (c["R_T"] > 0, c["i_max"] > 0)
+        if out and kind == last:
+            out[-1].append(name)
+        else:
+            out.append([name])
+        last = kind
+    return out
+
+
+def _hot_runs(spec, df, catalogue, cat, batch, steer, runs, duty, run) -> list[tuple[pd.DataFrame, dict, float]]:
+    """The drives `batch` (catalogue names) run in the loop on every variant of `df` in one batch: the
+    (candidate, variant) pairs are its rows, each with its drive's constants, gearhead, rotor and gains
+    (`motors.drive` per row). `runs` runs: from ambient, then from the closed-form hot start (`_hot_start`) of
+    the run before. Per candidate: (its last run's rows, the start rises it ran from, |end - start| left (K))."""
+    import dataclasses
+
+    n, k = len(df), len(batch)
+    motors = dataclasses.replace(
+        spec.vehicle.motors, model="dcmotor", catalogue=str(catalogue), drive=batch[0], steer=steer
+    )
+    run_spec = dataclasses.replace(spec, vehicle=dataclasses.replace(spec.vehicle, motors=motors))
+    table = {p: np.tile(df[p].to_numpy(float), k) for p in spec.params}
+    if k > 1:  # the candidates as one sweep over motors.drive
+        names = motors.catalogue_names()
+        table["motors.drive"] = np.repeat([float(names.index(b)) for b in batch], n)
+    duration = run_spec.stats_config().n_steps * float(spec.scenario.time_step)
+    rest = duration * (1.0 / duty - 1.0)
+    heated = duration - float(spec.scenario.time_step)  # winding_temp_end holds every step's heat but the last
+    keys = ("motors.drive_start_rise", "motors.steer_start_rise")
+    groups = dict(zip(keys, (WHEELS, GROUPS["steer"]), strict=True))
+    consts = [dict(zip(keys, (cat[b].resolved(b), cat[steer].resolved(steer)), strict=True)) for b in batch]
+    start = [{key: np.zeros(n) for key in keys} for _ in batch]
+    for r in range(runs):
+        whole = run(run_spec, {**table, **{key: np.concatenate([s[key] for s in start]) for key in keys}})
+        parts = [whole.iloc[j * n : (j + 1) * n].reset_index(drop=True) for j in range(k)]
+        residual = []
+        for res, s, c in zip(parts, start, consts, strict=True):
+            # the next run starts from this one's end, cooled over the rest between runs
+            end = {
+                key: (res[[f"{m}_winding_temp_end" for m in groups[key]]].max(axis=1).to_numpy() - c[key]["T_amb"])
+                * (np.exp(-rest / c[key]["t_T"]) if c[key]["t_T"] > 0 else 0.0)
+                for key in keys
+            }
+            residual.append(max(float(np.max(np.abs(end[key] - s[key]))) for key in keys))
+        if r < runs - 1:  # the next start: the back-to-back fixed point, in closed form from this run
+            start = [
+                {key: _hot_start(res, groups[key], c[key], s[key], heated, rest) for key in keys}
+                for res, s, c in zip(parts, start, consts, strict=True)
+            ]
+    return list(zip(parts, start, residual, strict=True))
+
+
 def in_loop(
     spec: Any,
     df: pd.DataFrame,
@@ -543,9 +628,12 @@ def in_loop(
     backend: str | None = None,
     stop_at_first: bool = True,
     duty: float | None = None,
+    run: Runner | None = None,
 ) -> tuple[str | None, pd.DataFrame, dict[str, pd.DataFrame]]:
     """The second pass: `candidates` run as the drive motors in the loop (MuJoCo's dcmotor), on the variants
-    of the servo sweep `df`.
+    of the servo sweep `df`, all in one batch: each (candidate, variant) pair is a variant of one sweep, its
+    motor's constants, gearhead, rotor inertia and drive gains its own (cut where the motors' models differ in
+    size: `batches`). Results equal one run per candidate.
 
     `spec`: the servo sweep's SweepSpec, `batchveh.load_spec(path)` (a YAML path given here is read with
     it); `df`: its rows, `batchveh.load(folder)`, holding a column per swept parameter (`spec.params`), or
@@ -568,14 +656,11 @@ def in_loop(
     run end where it started (`_hot_start`: the one-node winding's back-to-back fixed point in closed form from
     the previous run, each drive and steering group at its hottest winding): the thermal state of back-to-back
     runs, in two runs. The row gives the median start
-    rise and the largest |end - start| left (K). `stop_at_first`: stop at the first candidate that covers.
-    `backend`: None for 'mujoco', or 'warp' (MJX's JAX implementation has no dcmotor)."""
-    import dataclasses
-
-    from batchveh.engines import make_engine, resolve_backend
+    rise and the largest |end - start| left (K). `stop_at_first`: report no candidate after the first that
+    covers (all of the batch ran). `run`: how the runs are run (a Runner; default `engine_runner(backend)`:
+    `backend` None for 'mujoco', or 'warp'; MJX's JAX implementation has no dcmotor)."""
     from batchveh.model.motors import load_catalogue, pick
-    from batchveh.stepping.batch import make_batch
-    from batchveh.stepping.motor_stats import LIMITED_SHARE, named
+    from batchveh.stepping.motor_stats import LIMITED_SHARE
 
     if not 0 < share <= 1:
         raise ConfigError(f"share: {share!r} is not allowed; allowed: 0 < share <= 1")
@@ -585,100 +670,82 @@ def in_loop(
         spec = load_spec(spec)
     cat = load_catalogue(catalogue)
     pick(cat, steer, "steer")
-    table = {k: df[k].to_numpy(float) for k in spec.params}
-    name_of = resolve_backend(backend or "mujoco")
+    for name in candidates:
+        pick(cat, name, "candidates")
     duty = float(getattr(spec, "duty", 1.0) if duty is None else duty)
     if not 0 < duty <= 1:
         raise ConfigError(f"duty: {duty!r} is not allowed; allowed: 0 < duty <= 1")
+    run = run or engine_runner(backend)
+    runs = 1 + (iterations if hot else 0)
+    servo = df.reset_index(drop=True)
     rows, detail, best = [], {}, None
-    for name in candidates:
-        motor = pick(cat, name, "candidates")
-        c, cs = motor.resolved(name), cat[steer].resolved(steer)
-        motors = dataclasses.replace(
-            spec.vehicle.motors, model="dcmotor", catalogue=str(catalogue), drive=name, steer=steer
-        )
-        run_spec = dataclasses.replace(spec, vehicle=dataclasses.replace(spec.vehicle, motors=motors))
-        cfg = run_spec.stats_config()
-        duration = cfg.n_steps * float(spec.scenario.time_step)
-        rest = duration * (1.0 / duty - 1.0)
-        heated = duration - float(spec.scenario.time_step)  # winding_temp_end holds every step's heat but the last
-        engine = make_engine(name_of, spec.scenario, cfg, None, len(df))
-        start = {"motors.drive_start_rise": np.zeros(len(df)), "motors.steer_start_rise": np.zeros(len(df))}
-        consts = {"motors.drive_start_rise": c, "motors.steer_start_rise": cs}
-        groups = {"motors.drive_start_rise": WHEELS, "motors.steer_start_rise": GROUPS["steer"]}
-        runs = 1 + (iterations if hot else 0)
-        for k in range(runs):
-            cols = engine.run(make_batch(run_spec.vehicle, spec.scenario, {**table, **start}))
-            res = pd.DataFrame({key: np.asarray(v) for key, v in named(cols).items()})
-            # the next run starts from this one's end, cooled over the rest between runs
-            end = {
-                key: (res[[f"{m}_winding_temp_end" for m in groups[key]]].max(axis=1).to_numpy() - consts[key]["T_amb"])
-                * (np.exp(-rest / consts[key]["t_T"]) if consts[key]["t_T"] > 0 else 0.0)
-                for key in start
-            }
-            residual = max(float(np.max(np.abs(end[key] - start[key]))) for key in start)
-            if k < runs - 1:  # the next start: the back-to-back fixed point, in closed form from this run
-                start = {key: _hot_start(res, groups[key], consts[key], start[key], heated, rest) for key in start}
-        # a variant whose run failed a physics check (or diverged) says nothing of the motor: apart, never a reason
-        diverged = res["status_code"].to_numpy() == 1
-        lost = not_simulated(res)
-        why_lost = pd.Series(np.where(diverged, "diverged", res["motor_check"].to_numpy()))[lost].value_counts()
-        # the speed the servo's run asked, as the screen reads it: a duty cycle's peak, a straight line's mean
-        cycle = [f"mission_{m}_speed_peak" for m in WHEELS]
-        if cycle[0] in df:
-            servo_speed = df[cycle].abs().max(axis=1).to_numpy(float)
-        else:
-            servo_speed = df["wheel_speed"].to_numpy(float) if "wheel_speed" in df else None
-        behind = segment_shortfall(df.reset_index(drop=True), res)
-        why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE, duty, servo_speed, behind != "")
-        # named by a mission's segment it fell behind in, or whose servo speed passed the no-load speed (as the
-        # screen names it); else the cycle's ("mission"), or a straight line's window
-        fast = _first_segment_above(df.reset_index(drop=True), c["V"] / (c["K"] * c["N"]))
-        span = behind.where(behind != "", fast.where(why["speed"], ""))
-        where = _where(why, span.where(span != "", "mission" if cycle[0] in df else "window"))
-        why.loc[lost, :] = False
-        steer_why = steer_reasons(res, cat[steer], cs, duty)
-        steer_why.loc[lost, :] = False
-        steer_bad = steer_why.any(axis=1).to_numpy()
-        judged = ~lost & ~steer_bad  # the drive is judged where the run was simulated and its steering held
-        fits = ~why.any(axis=1)
-        simulated = max(int((~lost).sum()), 1)
-        counted = max(int(judged.sum()), 1)
-        rows.append(
-            {
-                "motor": name,
-                "gear_ratio": c["N"],
-                "continuous_torque_at_wheel": bound_at_wheel(c, np.nan),
-                "coverage": float(fits[judged].sum() / counted),
-                "judged": int(judged.sum()),  # the variants the drive's coverage is over: simulated, steering held
-                "not_simulated": int(lost.sum()),
-                "not_simulated_why": ", ".join(f"{v} {k}" for k, v in why_lost.items()),
-                **{f"fails_{r}": int(why[r].to_numpy()[judged].sum()) for r in IN_LOOP_REASONS},
-                "limiting": _limiting(where[judged & ~fits.to_numpy()]),
-                "steer": steer,
-                "steer_misses": int(steer_bad.sum()),
-                "steer_coverage": float(1.0 - steer_bad.sum() / simulated),
-                **{f"steer_fails_{r}": int(steer_why[r].sum()) for r in STEER_REASONS},
-                "start_rise_median": float(np.median(start["motors.drive_start_rise"])),
-                "residual_K": residual,
-                "runs": runs,
-            }
-        )
-        detail[name] = pd.concat(
-            [
-                df.reset_index(drop=True)[list(spec.params)],
-                res,
-                why.add_prefix("fails_"),
-                steer_why.add_prefix("steer_fails_"),
-                where.rename("where"),
-                pd.Series(judged, name="judged"),
-            ],
-            axis=1,
-        )
-        if fits[judged].sum() / counted >= share and best is None:
-            best = name
-            if stop_at_first:
-                break
+    cs = cat[steer].resolved(steer)
+    for batch in batches(cat, list(candidates)):
+        for name, (res, start, residual) in zip(batch, _hot_runs(spec, servo, catalogue, cat, batch, steer, runs,
+                                                                 duty, run), strict=True):  # fmt: skip
+            motor = cat[name]
+            c = motor.resolved(name)
+            # a variant whose run failed a physics check (or diverged) says nothing of the motor: apart, never a
+            # reason
+            diverged = res["status_code"].to_numpy() == 1
+            lost = not_simulated(res)
+            why_lost = pd.Series(np.where(diverged, "diverged", res["motor_check"].to_numpy()))[lost].value_counts()
+            # the speed the servo's run asked, as the screen reads it: a duty cycle's peak, a straight line's mean
+            cycle = [f"mission_{m}_speed_peak" for m in WHEELS]
+            if cycle[0] in servo:
+                servo_speed = servo[cycle].abs().max(axis=1).to_numpy(float)
+            else:
+                servo_speed = servo["wheel_speed"].to_numpy(float) if "wheel_speed" in servo else None
+            behind = segment_shortfall(servo, res)
+            why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE, duty, servo_speed, behind != "")
+            # named by a mission's segment it fell behind in, or whose servo speed passed the no-load speed (as
+            # the screen names it); else the cycle's ("mission"), or a straight line's window
+            fast = _first_segment_above(servo, c["V"] / (c["K"] * c["N"]))
+            span = behind.where(behind != "", fast.where(why["speed"], ""))
+            where = _where(why, span.where(span != "", "mission" if cycle[0] in servo else "window"))
+            why.loc[lost, :] = False
+            steer_why = steer_reasons(res, cat[steer], cs, duty)
+            steer_why.loc[lost, :] = False
+            steer_bad = steer_why.any(axis=1).to_numpy()
+            judged = ~lost & ~steer_bad  # the drive is judged where the run was simulated and its steering held
+            fits = ~why.any(axis=1)
+            simulated = max(int((~lost).sum()), 1)
+            counted = max(int(judged.sum()), 1)
+            rows.append(
+                {
+                    "motor": name,
+                    "gear_ratio": c["N"],
+                    "continuous_torque_at_wheel": bound_at_wheel(c, np.nan),
+                    "coverage": float(fits[judged].sum() / counted),
+                    "judged": int(judged.sum()),  # the variants the drive's coverage is over: simulated, steering held
+                    "not_simulated": int(lost.sum()),
+                    "not_simulated_why": ", ".join(f"{v} {k}" for k, v in why_lost.items()),
+                    **{f"fails_{r}": int(why[r].to_numpy()[judged].sum()) for r in IN_LOOP_REASONS},
+                    "limiting": _limiting(where[judged & ~fits.to_numpy()]),
+                    "steer": steer,
+                    "steer_misses": int(steer_bad.sum()),
+                    "steer_coverage": float(1.0 - steer_bad.sum() / simulated),
+                    **{f"steer_fails_{r}": int(steer_why[r].sum()) for r in STEER_REASONS},
+                    "start_rise_median": float(np.median(start["motors.drive_start_rise"])),
+                    "residual_K": residual,
+                    "runs": runs,
+                }
+            )
+            detail[name] = pd.concat(
+                [
+                    servo[list(spec.params)],
+                    res,
+                    why.add_prefix("fails_"),
+                    steer_why.add_prefix("steer_fails_"),
+                    where.rename("where"),
+                    pd.Series(judged, name="judged"),
+                ],
+                axis=1,
+            )
+            if fits[judged].sum() / counted >= share and best is None:
+                best = name
+                if stop_at_first:
+                    return best, pd.DataFrame(rows), detail
     return best, pd.DataFrame(rows), detail
 
 

@@ -1,0 +1,152 @@
+"""The loop's candidates as one batch (issue 52): `python -m batchveh.size` against the sequential path it replaced (one
+candidate at a time, as at commit 99dbea3), on the same conditions. Writes validation/results/batched_loop.json.
+
+    git worktree add /tmp/sequential 99dbea3
+    python validation/batched_loop.py --sequential /tmp/sequential [--out DIR]
+
+Per vehicle, both trees run the command in a fresh folder (MuJoCo C, this machine), and the script compares:
+the chosen drive and steering motors; every row of verdicts.parquet (the same variants and motors; the booleans and
+the reason strings equal; the numbers within 1e-9 relative); the loop's table (coverage, not simulated, each reason's
+count, the hot start's median and residual); and each command's wall. What the issue asks: every row and choice
+equal, or each difference explained.
+The vehicles: issue 51's sidewalk robot (sweeps/sidewalk_robot.yaml, 400 LHS conditions), the 180-300 kg AGV
+(sweeps/warehouse_agv.yaml drawn at 400 conditions, the spec written into --out) and the AGV's duty cycle
+(sweeps/agv_mission.yaml, its 48 conditions).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from datetime import date
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import yaml
+
+ROOT = Path(__file__).resolve().parent.parent
+CATALOGUE = ROOT / "notebooks" / "motors.yaml"
+JSON = ROOT / "validation" / "results" / "batched_loop.json"
+SEQUENTIAL_COMMIT = "99dbea3"
+VEHICLES = ("sidewalk_robot", "warehouse_agv_400", "agv_mission")
+RTOL = 1e-9
+
+
+def spec_path(name: str, out: Path) -> Path:
+    if name != "warehouse_agv_400":
+        return ROOT / "sweeps" / f"{name}.yaml"
+    raw = yaml.safe_load((ROOT / "sweeps" / "warehouse_agv.yaml").read_text())
+    raw["name"], raw["sweep"]["n"] = name, 400
+    raw["output"] = str(out / name / "results")
+    path = out / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(raw, sort_keys=False))
+    return path
+
+
+def size(tree: Path, spec: Path, folder: Path) -> tuple[float, str]:
+    """The command from the source tree `tree` in a fresh process: (wall, last line)."""
+    t0 = time.perf_counter()
+    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONPATH": str(tree)}
+    done = subprocess.run(
+        [sys.executable, "-m", "batchveh.size", str(spec), "--catalogue", str(CATALOGUE), "--out", str(folder),
+         "--quiet", "--overwrite"],
+        cwd=tree, capture_output=True, text=True, env=env,
+    )  # fmt: skip
+    wall = time.perf_counter() - t0
+    if done.returncode:
+        raise SystemExit(f"{spec.name} ({tree}): exit {done.returncode}: {done.stderr[-2000:]}")
+    return wall, done.stdout.strip().splitlines()[-1]
+
+
+def differences(a: pd.DataFrame, b: pd.DataFrame) -> dict[str, str]:
+    """Column by column, where two frames of the same rows differ: {column: what}."""
+    out = {}
+    for col in sorted(set(a) | set(b)):
+        if col not in a or col not in b:
+            out[col] = "only in " + ("the batch" if col in b else "the sequential")
+            continue
+        x, y = a[col], b[col]
+        if pd.api.types.is_numeric_dtype(x) and not pd.api.types.is_bool_dtype(x):
+            xa, ya = x.to_numpy(float), y.to_numpy(float)
+            same = np.isclose(xa, ya, rtol=RTOL, atol=0.0) | (np.isnan(xa) & np.isnan(ya))
+            if not same.all():
+                out[col] = f"{int((~same).sum())} rows, largest |diff| {float(np.nanmax(np.abs(xa - ya))):.3g}"
+        elif not (x.astype(str).to_numpy() == y.astype(str).to_numpy()).all():
+            out[col] = f"{int((x.astype(str).to_numpy() != y.astype(str).to_numpy()).sum())} rows"
+    return out
+
+
+def compare(name: str, sequential: Path, out: Path) -> dict:
+    spec = spec_path(name, out)
+    walls, lines, got = {}, {}, {}
+    for label, tree in (("sequential", sequential), ("batch", ROOT)):
+        folder = out / name / label
+        walls[label], lines[label] = size(tree, spec, folder)
+        got[label] = (json.loads((folder / "sizing.json").read_text()), pd.read_parquet(folder / "verdicts.parquet"))
+    (s_sum, s_v), (b_sum, b_v) = got["sequential"], got["batch"]
+    key = ["motor", "variant"]
+    s_v, b_v = s_v.sort_values(key).reset_index(drop=True), b_v.sort_values(key).reset_index(drop=True)
+    same_rows = len(s_v) == len(b_v) and (s_v[key].to_numpy() == b_v[key].to_numpy()).all()
+    loop_cols = ["motor", "coverage", "judged", "not_simulated", "steer", "steer_misses", "start_rise_median",
+                 "residual_K"]  # fmt: skip
+    s_loop, b_loop = pd.DataFrame(s_sum["loop"]), pd.DataFrame(b_sum["loop"])
+    reasons = [c for c in s_loop if c.startswith(("fails_", "steer_fails_"))]
+    return {
+        "spec": str(spec.relative_to(ROOT)) if spec.is_relative_to(ROOT) else spec.name,
+        "variants": int(b_sum["variants"]),
+        "chosen": {"sequential": s_sum["chosen"], "batch": b_sum["chosen"]},
+        "steer": {"sequential": s_sum["steer"], "batch": b_sum["steer"]},
+        "choices_equal": s_sum["chosen"] == b_sum["chosen"] and s_sum["steer"] == b_sum["steer"],
+        "verdict_rows": {"sequential": len(s_v), "batch": len(b_v)},
+        "verdict_rows_same_variants_and_motors": bool(same_rows),
+        "verdict_differences": differences(s_v, b_v) if same_rows else "rows differ",
+        "loop_differences": differences(s_loop[loop_cols + reasons], b_loop[loop_cols + reasons])
+        if len(s_loop) == len(b_loop)
+        else "rows differ",
+        "loop": b_loop[["motor", "coverage", "not_simulated", "residual_K"]].to_dict("records"),
+        "wall_s": {k: round(v, 1) for k, v in walls.items()},
+        "phases_s": {"sequential": s_sum["wall_s"], "batch": b_sum["wall_s"]},
+        "last_line": lines["batch"],
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--sequential", required=True, help=f"a checkout of {SEQUENTIAL_COMMIT} (git worktree add)")
+    ap.add_argument("--out", default=str(ROOT / "results" / "batched_loop"))
+    ap.add_argument("--only", nargs="*", choices=VEHICLES)
+    args = ap.parse_args()
+    out = Path(args.out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    got = {name: compare(name, Path(args.sequential).resolve(), out) for name in (args.only or VEHICLES)}
+    for name, r in got.items():
+        print(f"{name:20} chosen {r['chosen']['batch']} (sequential {r['chosen']['sequential']}); verdict rows "
+              f"{r['verdict_rows']['batch']}/{r['verdict_rows']['sequential']}, differences "
+              f"{r['verdict_differences'] or 'none'}; loop {r['loop_differences'] or 'the same'}; wall "
+              f"{r['wall_s']['batch']} s against {r['wall_s']['sequential']} s")  # fmt: skip
+    if args.only:
+        return
+    JSON.write_text(
+        json.dumps(
+            {
+                "what": __doc__.split("\n\n")[0],
+                "date": str(date.today()),
+                "machine": f"this project's {os.cpu_count()}-core machine ({platform.machine()}), MuJoCo C",
+                "sequential_commit": SEQUENTIAL_COMMIT,
+                "rtol": RTOL,
+                "vehicles": got,
+            },
+            indent=1,
+        )
+        + "\n"
+    )
+
+
+if __name__ == "__main__":
+    main()
