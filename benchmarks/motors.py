@@ -1,4 +1,6 @@
-"""The cost of motors in the loop (issue 31): the same sweep with the ideal servo and with dcmotors.
+"""What do motors in the loop cost a sweep, and does warp agree with C on them?
+
+The cost of motors in the loop (issue 31): the same sweep with the ideal servo and with dcmotors.
 
     python benchmarks/motors.py --size 2048 --time 2 --repeat 3 --label cpu-2core
     python benchmarks/motors.py --size 131072 --time 5 --repeat 1 --backend warp --label h200

@@ -1,4 +1,7 @@
-"""One host, side by side: the in-process sweep against a Ray sweep with one worker per GPU (issue 13).
+"""What do several GPUs of one host buy a sweep: --executor ray or gpus against one GPU in-process?
+
+One host, side by side: the in-process sweep against a Ray sweep with one worker per GPU (issue 13), and against
+--executor gpus (one process per GPU, no Ray).
 
     python benchmarks/ray_gpus.py --backend mjx --size 262144 --out benchmarks/results/h200x2-ray-gpus.json
     python benchmarks/ray_gpus.py --backend mujoco --size 64          # the CPU, to see that it runs

@@ -1,11 +1,12 @@
-"""Write docs/performance.md: today's figures, read from benchmarks/results/*.json, and the text of
-benchmarks/NOTES.md around them.
+"""Not a benchmark: the helper that writes docs/performance.md, today's figures read from benchmarks/results/*.json
+and the text of benchmarks/NOTES.md around them.
 
     python benchmarks/render.py            # rewrite docs/performance.md
     python benchmarks/render.py --check    # exit 1 if docs/performance.md is not what this writes
 
-Each row of the table names what was measured, reads its figure from its result file (so the page
-cannot drift from the file), names the machine and gives the one command that repeats it. A row
+Each row of the table is one figure: it names what was measured, reads the figure from its result file (so
+the page cannot drift from the file), names the machine and gives the one command (script and mode) that
+repeats it. A row
 kind that matches files by a pattern (`*-motors*.json`) gives one row per file,
 so that a new run of the same benchmark shows up without an edit here. Earlier runs are kept in
 benchmarks/results/archive.json (told in benchmarks/ARCHIVE.md); a result file that no row reads
@@ -116,14 +117,12 @@ def _e2e(*ds: dict) -> str:
     )
 
 
-def _prepare(*ds: dict) -> str:
-    def span(d):
-        us = [r["us_per_variant"] for r in d["rows"]]
-        return f"{min(us):.2f}-{max(us):.2f} us ({d['rows'][0]['n']:,} variants)"
-
-    comp = [r["compile_per_variant_us"] for d in ds for r in d["rows"]]
+def _prepare(d: dict) -> str:
+    us = [r["us_per_variant"] for r in d["rows"]]
+    comp = [r["compile_per_variant_us"] for r in d["rows"]]
     return (
-        f"16 cores **{span(ds[0])}**; 2 cores {span(ds[1])}; a compile per variant {min(comp):,.0f}-{max(comp):,.0f} us"
+        f"**{min(us):.2f}-{max(us):.2f} us** a variant ({d['rows'][0]['n']:,} variants; a compile per variant "
+        f"{min(comp):,.0f}-{max(comp):,.0f} us)"
     )
 
 
@@ -202,10 +201,12 @@ def _gpu_processes(*docs: dict) -> str:
         f"{ratios[len(ratios) // 2]:.3f}x** ({len(ratios)} pairs)"
     )
 
+
 H200 = "one H200 (nvidia-h200 kind), 16 cores"
 DC_COMPARED = ("current_rms", "winding_temp_rise", "energy_drawn", "speed_shortfall")
 H200_UNNAMED = "one H200 (nvidia-h200 kind; the file names no GPU)"
 TWO_CORES = "this project's 2-core machine"
+
 
 def _span(values) -> str:
     """'a-b s in n runs', or 'a s in one run'."""
@@ -214,24 +215,39 @@ def _span(values) -> str:
 
 
 def _native(d: dict) -> str:
-    """The warp engine against MuJoCo Warp alone, same process (benchmarks/warp_native.py)."""
+    """The warp engine against MuJoCo Warp alone, same process (benchmarks/warp_engine.py native)."""
     alone = bench_row(d, "MuJoCo Warp alone")["rate"]
     eng = [r for r in d["rows"] if r["name"].startswith("warp engine") and "rate" in r]
     others = "; ".join(f"{r['name'][12:]} {r['ratio_to_alone']:.3f}x" for r in eng[1:])
     return (
-        f"engine **{g(eng[0]['rate'])}** against MuJoCo Warp alone {g(alone)}: **{eng[0]['ratio_to_alone']:.3f}x**"
-        + (f" ({others})" if others else "")
+        f"**{eng[0]['ratio_to_alone']:.3f}x** MuJoCo Warp alone's rate (engine {g(eng[0]['rate'])}, alone {g(alone)}"
+        + (f"; {others})" if others else ")")
     )
 
 
-def _e2e_native(*ds: dict) -> str:
-    def one(d):
-        runs = {k: [r for r in d["runs"] if r["kind"] == k] for k in ("first", "cold", "warm")}
-        warm = " / ".join(f"{r['wall_s']:.1f}" for r in runs["warm"])
-        sweep = " / ".join(f"{r['sweep_wall_s']:.1f}" for r in runs["warm"])
-        return f"first run **{runs['first'][0]['wall_s']:.1f} s**, warm **{warm} s** (the sweep {sweep} s)"
+def _e2e_native(kind: str) -> Callable[..., str]:
+    """The `first` or the `warm` runs of end_to_end.py's files: their range, then each host's."""
 
-    return "; ".join(one(d) for d in ds)
+    def figure(*ds: dict) -> str:
+        runs = [[r for r in d["runs"] if r["kind"] == kind] for d in ds]
+        walls = [r["wall_s"] for rs in runs for r in rs]
+        hosts = "; ".join(
+            " / ".join(f"{r['wall_s']:.1f}" for r in rs) + " s (the sweep "
+            + " / ".join(f"{r['sweep_wall_s']:.1f}" for r in rs) + " s)"
+            for rs in runs
+        )  # fmt: skip
+        return f"**{min(walls):.1f}-{max(walls):.1f} s** ({len(walls)} runs; by host: {hosts})"
+
+    return figure
+
+
+def _ref(d: dict) -> str:
+    """The engine's float32 against MuJoCo C float64 on bench.py's sample (warp_engine.py native --ref)."""
+    acc = d["accuracy_vs_c"]
+    return (
+        f"wheel mean p99 **{acc['noslip_wheel_mean']['p99']:.2e}** (wheel peak p99 "
+        f"{acc['noslip_wheel_peak']['p99']:.2e}, four-wheel sum mean p99 {acc['noslip_sum_mean']['p99']:.1e})"
+    )
 
 
 def _params_ab(d: dict) -> str:
@@ -243,21 +259,33 @@ def _params_ab(d: dict) -> str:
     return f"now **{now[0]:.3f}-{now[-1]:.3f}x**, before {before[0]:.3f}-{before[-1]:.3f}x"
 
 
-def _profile(d: dict, c: dict) -> str:
-    """Per step: MuJoCo Warp alone, the engine, and the engine's device time by kind (benchmarks/warp_profile.py);
-    `c`, a second profile that names each copy's source: the share of copies made once a run, before its steps."""
+def _step_ms(d: dict) -> str:
+    """A step of the engine against MuJoCo Warp alone and its own Warp calls in a scan (warp_engine.py profile)."""
     ms = {r["name"]: r["ms_per_step"] for r in d["rows"]}
+    return (
+        f"the engine **{ms['warp engine']:.2f} ms** a step, MuJoCo Warp alone {ms['MuJoCo Warp alone']:.2f} ms, "
+        f"the engine's Warp calls in a scan {ms['physics in JAX']:.2f} ms"
+    )
+
+
+def _profile(d: dict) -> str:
+    """The engine's device time per step by kind, from the profiler trace (warp_engine.py profile)."""
     p = d["profile warp engine"]
     kinds = p["by_kind_us_per_step"]
     idle = p["span_us_per_step"] - p["busy_us_per_step"]
+    return (
+        f"MuJoCo Warp's kernels **{kinds['warp'] / 1e3:.2f} ms** of the engine's step, XLA's (tyre, drive, "
+        f"statistics) {kinds['xla'] / 1e3:.2f} ms, copies {kinds['copy'] / 1e3:.2f} ms, "
+        f"the GPU idle {idle / 1e3:.2f} ms"
+    )
+
+
+def _copies_once(c: dict) -> str:
+    """The copies a profile that names each copy's source finds made once a run, before its steps."""
     once = sum(v for k, v in c["profile warp engine"]["copies_us_per_step"].items() if "convert_element_type" in k)
     return (
-        f"MuJoCo Warp alone **{ms['MuJoCo Warp alone']:.2f} ms** a step, the engine **{ms['warp engine']:.2f} ms**, "
-        f"its Warp calls in a scan {ms['physics in JAX']:.2f} ms; of the engine's step (profiled): MuJoCo Warp's "
-        f"kernels **{kinds['warp'] / 1e3:.2f} ms**, XLA's (tyre, drive, statistics) {kinds['xla'] / 1e3:.2f} ms, "
-        f"copies {kinds['copy'] / 1e3:.2f} ms, the GPU idle {idle / 1e3:.2f} ms; the copies are mostly made once a "
-        f"run, before its steps (the parameters' conversions on the device, {once * c['steps'] / 1e3:.0f} ms a run in "
-        "the second file; now on the host)"
+        f"**{once * c['steps'] / 1e3:.0f} ms** a run: the parameters' conversions on the device, made once before "
+        "the steps (most of the copies; now on the host)"
     )
 
 
@@ -267,33 +295,51 @@ def _first_native(*ds: dict) -> str:
         for r in d["runs"]:
             if r["kind"] == "first":
                 firsts.setdefault(r["way"], []).append(r["wall_s"])
-    return ", ".join(
-        f"{w} **{min(v):.1f}{f'-{max(v):.1f}' if len(v) > 1 else ''} s**"
-        for w in ("ahead", "threads", "serial")
-        if (v := firsts.get(w))
-    ) + f" ({sum(map(len, firsts.values()))} first runs, {len(ds)} calls)"
+
+    def span(v):
+        return f"{min(v):.1f}{f'-{max(v):.1f}' if len(v) > 1 else ''} s"
+
+    return (
+        f"built ahead **{span(firsts['ahead'])}**, against "
+        + ", ".join(f"{w} {span(v)}" for w in ("threads", "serial") if (v := firsts.get(w)))
+        + f" ({sum(map(len, firsts.values()))} first runs, {len(ds)} calls)"
+    )
 
 
-def _reruns(native: dict, det: dict, xladet: dict, alone: dict) -> str:
+def _reruns(native: dict) -> str:
+    """Two runs of one chunk on the warp engine, column by column (warp_engine.py native's reruns)."""
     r = native["reruns"]["default"]
     big = r["largest"]
     torque = max(v for k, v in big.items() if k.startswith(("drive_", "steer_")) and "energy" not in k
                  and "power" not in k)  # fmt: skip
     energy = max(v for k, v in big.items() if k.endswith("_energy"))
+    return (
+        f"two runs of one {native['size']:,}-variant chunk: **{r['differ']} of {r['columns']} columns differ** "
+        f"(torques by at most {torque:.1e} N m, energies {energy:.3f} J; status, slipping, steady and "
+        "solver_limit_share equal)"
+    )
+
+
+def _reruns_alone(alone: dict) -> str:
+    """Two runs of MuJoCo Warp alone, world by world (warp_engine.py determinism)."""
     a0 = alone["rows"][0]
+    return (
+        f"**{a0['qfrc_actuator_worlds_differ']:,} of {alone['size']:,} worlds differ** after {alone['steps']} steps "
+        f"(qfrc_actuator by at most {a0['qfrc_actuator_largest']:.1e})"
+    )
+
+
+def _reruns_det(det: dict, xladet: dict) -> str:
+    """The warp engine's reruns with MuJoCo Warp's Option.deterministic 7 (warp_engine.py native --modes)."""
     d7 = next(x for x in det["rows"] if x["name"] == "warp engine det=7")
     d0 = next(x for x in det["rows"] if x["name"] == "warp engine default")
     x7 = next(x for x in xladet["rows"] if x["name"] == "warp engine det=7")
     return (
-        f"two runs of one {native['size']:,}-variant chunk: **{r['differ']} of {r['columns']} columns differ** "
-        f"(torques by at most {torque:.1e} N m, energies {energy:.3f} J; status, slipping, steady and "
-        "solver_limit_share equal); MuJoCo Warp alone: "
-        f"{a0['qfrc_actuator_worlds_differ']:,} of {alone['size']:,} worlds differ after {alone['steps']} steps "
-        f"(qfrc_actuator {a0['qfrc_actuator_largest']:.1e}); Option.deterministic 7: still "
-        f"{det['reruns']['det=7']['differ']} columns differ, at {d7['rate'] / d0['rate']:.3f}x the default rate "
-        f"({det['size']:,} worlds; {x7['rate'] / xladet['rows'][1]['rate']:.3f}x at {xladet['size']:,} with XLA's "
-        "deterministic ops), and it cannot allocate at 32,768"
+        f"still **{det['reruns']['det=7']['differ']} columns differ**, at {d7['rate'] / d0['rate']:.3f}x the default "
+        f"rate ({det['size']:,} worlds; {x7['rate'] / xladet['rows'][1]['rate']:.3f}x at {xladet['size']:,} with "
+        "XLA's deterministic ops), and it cannot allocate at 32,768"
     )
+
 
 ROWS = [
     Row(
@@ -302,45 +348,77 @@ ROWS = [
         ["h100-warp-native.json"],
         _native,
         lambda d: gpu_of(d["machine"]),
-        "`python benchmarks/warp_native.py --size 131072 --modes default det=3`",
+        "`python benchmarks/warp_engine.py native --size 131072 --modes default det=3`",
     ),
     Row(
-        "Warp float32 (MuJoCo Warp 4.0) against MuJoCo C 4.0 float64 (tolerance 1e-12), bench.py's 256-variant "
-        "sample, the variants that do not slip",
-        ["h100-ref-warp-native.json", "cpu-2core-ref-warp-native.json"],
-        lambda g_, c: "; ".join(
-            f"{where}: wheel mean p99 **{d['accuracy_vs_c']['noslip_wheel_mean']['p99']:.2e}**, wheel peak p99 "
-            f"{d['accuracy_vs_c']['noslip_wheel_peak']['p99']:.2e}, four-wheel sum mean p99 "
-            f"{d['accuracy_vs_c']['noslip_sum_mean']['p99']:.1e}"
-            for where, d in (("GPU", g_), ("MuJoCo Warp on the CPU", c))
-        ),
-        "one H100 (warp), its 16 cores (C); this project's 2-core machine",
-        "`python benchmarks/warp_native.py --size 131072 --ref 256 --modes default`",
+        "Warp float32 (MuJoCo Warp 4.0) on a GPU against MuJoCo C 4.0 float64 (tolerance 1e-12), bench.py's "
+        "256-variant sample, the variants that do not slip",
+        ["h100-ref-warp-native.json"],
+        _ref,
+        "one H100 (warp), its 16 cores (C)",
+        "`python benchmarks/warp_engine.py native --size 131072 --ref 256 --modes default`",
+    ),
+    Row(
+        "The same with MuJoCo Warp on the CPU (JAX's CPU backend) against MuJoCo C float64",
+        ["cpu-2core-ref-warp-native.json"],
+        _ref,
+        TWO_CORES,
+        "`python benchmarks/warp_engine.py native --size 16 --steps 20 --ref 256 --modes default`",
     ),
     Row(
         "End to end on MuJoCo Warp 4.0: `python -m batchveh.sweep benchmarks/slope_100k.yaml` (100,000 x 10 s), "
-        "fresh processes",
-        ["h100-end-to-end-slope_100k.json", "h100-end-to-end-slope_100k-2.json",
-         "h100-end-to-end-slope_100k-review.json"],
-        _e2e_native,
+        "fresh processes, warm caches",
+        [
+            "h100-end-to-end-slope_100k.json",
+            "h100-end-to-end-slope_100k-2.json",
+            "h100-end-to-end-slope_100k-review.json",
+        ],
+        _e2e_native("warm"),
         "three fresh H100 hosts, 16 cores each (the third after issue 46's review fixes)",
         "`python benchmarks/end_to_end.py benchmarks/slope_100k.yaml --warm 2`",
     ),
+    Row(
+        "The same command's first run on each of those fresh hosts (empty caches: Warp builds its kernels, JAX "
+        "compiles)",
+        [
+            "h100-end-to-end-slope_100k.json",
+            "h100-end-to-end-slope_100k-2.json",
+            "h100-end-to-end-slope_100k-review.json",
+        ],
+        _e2e_native("first"),
+        "three fresh H100 hosts, 16 cores each (the third after issue 46's review fixes)",
+        "`python benchmarks/end_to_end.py benchmarks/slope_100k.yaml --warm 2` (its `first` run)",
+    ),  # fmt: skip
     Row(
         "The warp engine against MuJoCo Warp alone after issue 46's review fixes, 131,072 variants x 400 steps, slip "
         "tyre: its parameters converted on the device (before) or on the host (now), alternated in one call",
         ["h100-params-ab-warp-profile.json"],
         _params_ab,
         "one fresh H100, 16 cores",
-        "`python benchmarks/warp_profile.py --size 131072 --steps 400 --repeat 3`, each tree twice",
+        "`python benchmarks/warp_engine.py profile --size 131072 --steps 400 --repeat 3`, each tree twice",
     ),
     Row(
-        "Where a step of the warp engine goes (131,072 variants x 400 steps, slip tyre), from a JAX profiler trace, "
-        "against MuJoCo Warp alone and the engine's own Warp calls in a JAX scan without tyre, drive or statistics",
-        ["h100-warp-profile.json", "h100-copies-warp-profile.json"],
+        "A step of the warp engine (131,072 variants x 400 steps, slip tyre) against MuJoCo Warp alone and the "
+        "engine's own Warp calls in a JAX scan without tyre, drive or statistics",
+        ["h100-warp-profile.json"],
+        _step_ms,
+        "one fresh H100, 16 cores",
+        "`python benchmarks/warp_engine.py profile --size 131072 --label h100`",
+    ),
+    Row(
+        "Where that step goes on the GPU, from a JAX profiler trace of one run",
+        ["h100-warp-profile.json"],
         _profile,
-        "one fresh H100, 16 cores (the second file another H100, 200 steps)",
-        "`python benchmarks/warp_profile.py --size 131072 --label h100`",
+        "one fresh H100, 16 cores",
+        "`python benchmarks/warp_engine.py profile --size 131072 --label h100`",
+    ),
+    Row(
+        "The engine's copies on the device made once a run, before its steps, each named by its source "
+        "(131,072 variants x 200 steps, the code before the parameters went to the host)",
+        ["h100-copies-warp-profile.json"],
+        _copies_once,
+        "one H100, 16 cores",
+        "`python benchmarks/warp_engine.py profile --size 131072 --steps 200` on that code",
     ),
     Row(
         "The first run on a fresh machine (the same sweep), each way on empty caches of its own: kernels built ahead "
@@ -348,18 +426,31 @@ ROWS = [
         ["h100-first-gpu-run-native.json", "h100-first-gpu-run-native-2.json"],
         _first_native,
         "one H100, 16 cores (two hosts)",
-        "`python benchmarks/gpu_start.py benchmarks/slope_100k.yaml --fresh --ways serial,ahead,threads "
-        "--warm-runs 0` (the second file: `--ways ahead,threads --warm-runs 1`, two rounds)",
+        "`python benchmarks/end_to_end.py start benchmarks/slope_100k.yaml --fresh --ways serial,ahead,threads "
+        "--warm-runs 0 --out FILE` (the second file: `--ways ahead,threads --warm-runs 1`, two rounds)",
     ),
     Row(
-        "Reruns on a GPU: the warp engine's columns, MuJoCo Warp alone, and MuJoCo Warp's Option.deterministic",
-        ["h100-warp-native.json", "h100-det-warp-native.json", "h100-det-xladet-warp-native.json",
-         "h100-determinism.json"],
+        "Reruns on a GPU: the warp engine's columns, two runs of one chunk compared bit for bit",
+        ["h100-warp-native.json"],
         _reruns,
         "one H100",
-        "`python benchmarks/warp_native.py --size 8192 --steps 400 --modes default det=7`; "
-        "`python benchmarks/determinism.py`",
-    ),  # fmt: skip
+        "`python benchmarks/warp_engine.py native --size 131072 --modes default det=3`",
+    ),
+    Row(
+        "Reruns on a GPU: MuJoCo Warp alone, two runs of the same worlds compared bit for bit",
+        ["h100-determinism.json"],
+        _reruns_alone,
+        "one H100",
+        "`python benchmarks/warp_engine.py determinism --size 8192 --steps 400 --det 0 7`",
+    ),
+    Row(
+        "Reruns on a GPU: the warp engine with MuJoCo Warp's Option.deterministic 7 (all of its bits)",
+        ["h100-det-warp-native.json", "h100-det-xladet-warp-native.json"],
+        _reruns_det,
+        "one H100",
+        "`python benchmarks/warp_engine.py native --size 8192 --steps 400 --modes default det=7` (the second "
+        "file: 4,096 variants, with XLA's deterministic ops)",
+    ),
     Row(
         "The README's main job, `sweeps/slope.yaml` (10,602 variants x 5 s, slip tyre, MuJoCo C), runs in a "
         "fresh clone",
@@ -393,7 +484,7 @@ ROWS = [
         ["cpu-2core-overhead-slip.json"],
         _overhead,
         lambda d: f"{TWO_CORES} ({d['machine']})",
-        "`python benchmarks/cpu_overhead.py --n 2048 --repeat 5 --peers same rigid --profile`",
+        "`python benchmarks/bench.py overhead --n 2048 --repeat 5 --peers same rigid --profile --out FILE`",
     ),
     Row(
         "The same on 16 cores of a GPU host (`taskset -c 0-15`, `JAX_PLATFORMS=cpu`), 4,096 variants, the parts in "
@@ -401,7 +492,8 @@ ROWS = [
         ["h100-cpu16-overhead.json"],
         _overhead,
         "one H100 host's 16 cores, no GPU used",
-        "`JAX_PLATFORMS=cpu taskset -c 0-15 python benchmarks/cpu_overhead.py --n 4096 --repeat 3 --peers same rigid`",
+        "`JAX_PLATFORMS=cpu taskset -c 0-15 python benchmarks/bench.py overhead --n 4096 --repeat 3 --peers same rigid "
+        "--out FILE`",
     ),
     Row(
         "The warp engine, slip tyre (the default), 131,072 variants x 1,100 steps, with the CPU peer, the rigid "
@@ -542,10 +634,17 @@ ROWS = [
     ),
     Row(
         "Preparing structural variants (`make_batch`: closed forms and `mj_setConst`), per variant",
-        ["h200-cpu16-structural-prepare.json", "cpu-2core-structural-prepare.json"],
+        ["h200-cpu16-structural-prepare.json"],
         _prepare,
-        "one H200 host's 16 cores; 2 cores",
+        "one H200 host's 16 cores",
         "`python benchmarks/structural.py prepare --size 100000`",
+    ),
+    Row(
+        "The same on 2 cores",
+        ["cpu-2core-structural-prepare.json"],
+        _prepare,
+        TWO_CORES,
+        "`python benchmarks/structural.py prepare --size 4000`",
     ),
     Row(
         "Structural variants, warp float32 against MuJoCo C float64, 4,096 random variants x 10 s",
@@ -594,7 +693,8 @@ ROWS = [
         ["h200-first-gpu-run.json"],
         _gpu_start,
         "one H200, then one H100 twice, then another H200; 16 cores each",
-        "`python benchmarks/gpu_start.py benchmarks/slope_100k.yaml --fresh --rounds 1` (the last: `--warm-runs 2`)",
+        "`python benchmarks/end_to_end.py start benchmarks/slope_100k.yaml --fresh --rounds 1 --out FILE` (the last: "
+        "`--warm-runs 2`)",
     ),
 ]
 

@@ -1,4 +1,6 @@
-"""Sweeps over the vehicle itself (issue 30): preparing structural variants, and what they cost a sweep.
+"""What does a sweep over the vehicle itself cost: preparing structural variants, sweeping them, warp against C?
+
+Sweeps over the vehicle itself (issue 30).
 
     python benchmarks/structural.py prepare --label cpu-2core
     python benchmarks/structural.py sweep --size 3000 --time 1 --repeat 2 --label cpu-2core

@@ -62,7 +62,7 @@ def default_threads() -> int:
     """MuJoCo threads for the C engine: every CPU but one on machines of 8 or more.
 
     The fold and control threads need about half a core on a 16-core host. Through run_sweep,
-    alternated with raw mujoco.batch at its best (benchmarks/cpu_overhead.py, 16 cores, chunks
+    alternated with raw mujoco.batch at its best (benchmarks/bench.py overhead, 16 cores, chunks
     of 4096, median of 4 pairs, before the tail fold ran on every CPU): 15 threads 0.81x, 16
     threads 0.80x (benchmarks/results/archive.json: h200-cpu16-overhead.json). On 2 cores, 1 thread would
     halve the speed."""
@@ -160,7 +160,7 @@ class MujocoEngine:
 
     def _use_processes(self, parts: int) -> bool:
         """The engine's `processes`, else: from PROCESS_PARTS parts on, where BATCHVEH_CPU_PROCESSES is 1 (a
-        script that guards its main, as benchmarks/cpu_overhead.py) or, unset, where spawning is safe."""
+        script that guards its main, as benchmarks/bench.py overhead) or, unset, where spawning is safe."""
         if self.processes is not None:
             return self.processes
         wanted = os.environ.get("BATCHVEH_CPU_PROCESSES", "")

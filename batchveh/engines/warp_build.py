@@ -20,7 +20,7 @@ A marker in Warp's kernel cache (`batchveh-ahead-<key>`, keyed on MuJoCo's and W
 model's structure and the chunk's batched fields) records that a vehicle's kernels were built, so a
 warm machine starts no workers; deleting Warp's cache (`python -c "import warp; warp.clear_kernel_cache()"`)
 deletes the marker with it. BATCHVEH_WARP_PREBUILD=0 turns the whole thing off
-(benchmarks/gpu_start.py --fresh compares both).
+(benchmarks/end_to_end.py start --fresh compares both).
 """
 
 from __future__ import annotations
@@ -195,7 +195,7 @@ class AheadBuild:
         times = {"pool_started": _POOL.get("started"), "created": self.created, "waited": waited}
         stop_workers()
         report["wall_s"] = round(time.perf_counter() - self.start, 2)
-        log = os.environ.get("BATCHVEH_WARP_AHEAD_LOG")  # for benchmarks/gpu_start.py: what each part took
+        log = os.environ.get("BATCHVEH_WARP_AHEAD_LOG")  # for benchmarks/end_to_end.py start: what each part took
         if log:  # with when (time.time()) this build began, each worker's warm-up and each task's steps
             import json
 
