@@ -145,6 +145,11 @@ def not_run(table: Any, runs: list[str], ran: list[str], chosen: str | None, bes
             out[name] = f"a smaller motor ({chosen}) covers in the loop"
         elif name not in runs and best is None:
             out[name] = f"screen {cover[name]:.1%}, more than {NEAR * 100:.0f} points below the best screen coverage"
+        elif name not in runs and best is not None and ranked.index(name) == ranked.index(best) - 1:
+            out[name] = (
+                f"screen {cover[name]:.1%}, more than {NEAR * 100:.0f} points below the share: the loop starts at "
+                f"the screen's choice ({best})"
+            )
         elif name not in runs:
             out[name] = f"screen {cover[name]:.1%}: below the loop's first, the one under the screen's {best}"
         else:
@@ -161,15 +166,20 @@ def batch_of(pending: list[str], best: str | None) -> list[str]:
     return pending[: pending.index(best) + 1] if best in pending else list(pending)
 
 
-def candidates(screen_table: Any, best: str | None) -> list[str]:
+def candidates(screen_table: Any, best: str | None, share: float | None = None) -> list[str]:
     """The motors to run in the loop, smallest first: from the one next below the screen's choice (the screen is
-    conservative: the loop may take it) upwards; without a screen choice, those within NEAR of the best screen
+    conservative: the loop may take it) upwards, that one only where its screen coverage lies within NEAR of
+    `share` (None: always; screen and loop agree within 2 points on every vehicle validated, so a motor the screen
+    puts further below cannot cover in the loop); without a screen choice, those within NEAR of the best screen
     coverage (the loop decides between them)."""
     ranked = list(screen_table["motor"])
+    cover = dict(zip(ranked, screen_table["coverage"], strict=True))
     if best is None:
         top = screen_table["coverage"].max()
-        return [m for m, c in zip(ranked, screen_table["coverage"], strict=True) if c >= top - NEAR]
-    return ranked[max(ranked.index(best) - 1, 0) :]
+        return [m for m in ranked if cover[m] >= top - NEAR]
+    i = ranked.index(best)
+    below = i > 0 and (share is None or cover[ranked[i - 1]] >= share - NEAR)
+    return ranked[i - 1 if below else i :]
 
 
 def sweep_runner(folder: Path, catalogue: str, backend: str | None, executor: Any = None) -> Any:
@@ -339,7 +349,7 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
     _, steer_table, _ = screen(df, cat, group="steer", **common)
     steer = args.steer or steering(steer_table, args.share)
     walls["screen"] = time.perf_counter() - t0
-    runs = candidates(table, best)
+    runs = candidates(table, best, args.share)
     rows, detail, chosen, steer_rows = [], {}, None, []
     ranked_steer = list(steer_table["motor"])
     from batchveh.engines import resolve_backend

@@ -64,7 +64,8 @@ def timed(cmd: list[str]) -> tuple[float, str]:
     if done.returncode:
         raise SystemExit(f"{' '.join(cmd)}: exit {done.returncode}: {done.stderr[-3000:]}")
     lines = done.stdout.strip().splitlines()
-    return wall, lines[-1] if lines else ""
+    summary = [x for x in lines if " rows (" in x]  # a sweep's own summary line: its wall inside the process
+    return wall, (summary or lines or [""])[-1]
 
 
 def main() -> None:

@@ -196,3 +196,17 @@ def test_a_killed_session_resumes_from_its_finished_chunks(sized, tmp_path):
     assert {p: p.stat().st_mtime_ns for p in kept} == kept
     after = pd.read_parquet(again / "verdicts.parquet")
     pd.testing.assert_frame_equal(before, after)
+
+
+def test_the_loop_runs_the_motor_below_the_choice_only_where_its_screen_is_near_the_share():
+    """The motor below the screen's choice runs in the loop where its screen coverage lies within 5 points of the
+    share (the loop may take it); further below, the loop starts at the choice, and the report says why."""
+    from batchveh.size import not_run
+
+    table = pd.DataFrame({"motor": ["a", "b", "c", "d"], "coverage": np.array([0.2, 0.5, 0.99, 1.0])})
+    assert candidates(table, "c", 0.99) == ["c", "d"]  # b: 50%, 49 points below
+    assert candidates(table.assign(coverage=[0.2, 0.95, 0.99, 1.0]), "c", 0.99) == ["b", "c", "d"]  # b: 4 below
+    assert candidates(table.assign(coverage=[0.2, 0.93, 0.99, 1.0]), "c", 0.99) == ["c", "d"]  # b: 6 below
+    assert candidates(table, "a", 0.99) == ["a", "b", "c", "d"]
+    why = not_run(table, ["c", "d"], ["c"], "c", "c")
+    assert "more than 5 points below the share" in why["b"] and "smaller motor (c) covers" in why["d"]

@@ -143,6 +143,17 @@ def ramp_shortfall(speed: Any, ramp_time: Any, window: tuple[float, float], a_ma
     the drive at its current's bound for as long as it is behind. The mean over the window [start, end] (s of law
     time) against the imposed speed's mean there. Arrays of one shape (or scalars); RAMP_STEPS time steps."""
     speed, ramp_time, a_max = np.broadcast_arrays(*(np.asarray(x, float) for x in (speed, ramp_time, a_max)))
+    # a wheel whose bound passes the law's peak acceleration never falls behind (0): only the others are stepped
+    peak = np.abs(speed) / np.maximum(ramp_time, 1e-12) * (15 / 8 if law == "smooth_step" else 1.0)
+    behind = ~(a_max >= peak)
+    out = np.zeros(speed.shape)
+    if behind.any():
+        out[behind] = _ramp_shortfall(speed[behind], ramp_time[behind], window, a_max[behind], law)
+    return out
+
+
+def _ramp_shortfall(speed: np.ndarray, ramp_time: np.ndarray, window: tuple[float, float], a_max: np.ndarray, law: str):
+    """`ramp_shortfall` stepped (1-D arrays)."""
     start, end = window
     dt = end / RAMP_STEPS
     w = np.zeros_like(speed)
@@ -353,12 +364,14 @@ def mission_segments(df: pd.DataFrame) -> list[str]:
 def _where(res: pd.DataFrame, span: str | pd.Series) -> pd.Series:
     """Per variant, the first reason it fails for, named with its span ("window: voltage"; `span` one name, or
     one per variant); "" where it fits."""
-    spans = pd.Series(span, index=res.index, dtype=object)
-    out = pd.Series("", index=res.index, dtype=object)
+    spans = pd.Series(span, index=res.index, dtype=object).to_numpy(dtype=object)
+    out = np.full(len(res), "", dtype=object)
+    free = np.ones(len(res), bool)
     for why in REASONS:
-        hit = (out == "") & res[why].astype(bool)
+        hit = free & res[why].to_numpy(bool)
         out[hit] = spans[hit] + f": {why}"
-    return out
+        free &= ~hit
+    return pd.Series(out, index=res.index, dtype=object)
 
 
 def _segments(df: pd.DataFrame, group: str, segments: list[str], motor: Any, res: pd.DataFrame) -> pd.Series:

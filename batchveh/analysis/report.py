@@ -198,6 +198,15 @@ def _judged_share(s: Sizing) -> str:
     return f" ({name}: {judged} of {total})" if judged < total else ""
 
 
+def _joined(bad: np.ndarray, names: tuple[str, ...]) -> np.ndarray:
+    """Per row of the booleans `bad` (rows, names), the names it holds, `;`-separated ("" for none)."""
+    out = np.full(len(bad), "", dtype=object)
+    for j, name in enumerate(names):
+        hit = bad[:, j]
+        out[hit] = np.where(out[hit] == "", name, out[hit] + ";" + name)
+    return out
+
+
 def verdicts(s: Sizing) -> pd.DataFrame:
     """Per variant and candidate run in the loop (long form): the swept values, `motor`, `fits`, the reasons it
     fails (`;`-separated, IN_LOOP_REASONS), `motor_status`, `motor_check`, whether it could be simulated, whether
@@ -215,8 +224,8 @@ def verdicts(s: Sizing) -> pd.DataFrame:
         f["simulated"] = ~lost
         f["steer_held"] = ~lost & ~steer_why.any(axis=1)
         f["fits"] = f["steer_held"].to_numpy() & ~why.any(axis=1)
-        f["reasons"] = [";".join(r for r, bad in zip(IN_LOOP_REASONS, w, strict=True) if bad) for w in why]
-        f["steer_reasons"] = [";".join(r for r, bad in zip(STEER_REASONS, w, strict=True) if bad) for w in steer_why]
+        f["reasons"] = _joined(why, IN_LOOP_REASONS)
+        f["steer_reasons"] = _joined(steer_why, STEER_REASONS)
         f["motor_status"] = d["motor_status"].to_numpy()
         f["motor_check"] = d["motor_check"].to_numpy()
         f["motor_torque_ratio"] = d["motor_torque_ratio"].to_numpy(float)
