@@ -153,14 +153,18 @@ def ramp_shortfall(speed: Any, ramp_time: Any, window: tuple[float, float], a_ma
 
 
 def _ramp_shortfall(speed: np.ndarray, ramp_time: np.ndarray, window: tuple[float, float], a_max: np.ndarray, law: str):
-    """`ramp_shortfall` stepped (1-D arrays)."""
+    """`ramp_shortfall` stepped (1-D arrays; the law's fraction computed once per step where every variant ramps
+    over the same time)."""
     start, end = window
     dt = end / RAMP_STEPS
     w = np.zeros_like(speed)
     got, want = np.zeros_like(speed), np.zeros_like(speed)
+    ramp = np.maximum(ramp_time, 1e-12)
+    one = ramp[:1] if len(ramp) and np.all(ramp == ramp[0]) else ramp  # one ramp time: the fraction a scalar
+    climb = a_max * dt
     for i in range(1, RAMP_STEPS + 1):
         t = i * dt
-        x = t / np.maximum(ramp_time, 1e-12)
+        x = t / one
         if law == "smooth_step":
             x = np.clip(x, 0.0, 1.0)
             frac = x**3 * (10 - 15 * x + 6 * x * x)
@@ -169,7 +173,7 @@ def _ramp_shortfall(speed: np.ndarray, ramp_time: np.ndarray, window: tuple[floa
         else:
             frac = x
         ref = speed * frac
-        w = np.minimum(ref, w + a_max * dt)
+        w = np.minimum(ref, w + climb)
         if t >= start:
             got += w
             want += ref
@@ -427,8 +431,9 @@ def _limiting(where: pd.Series) -> str:
     """The commonest segment and reason among a motor's failing variants, and how many fail there."""
     if not len(where):
         return ""
-    key = where.str.replace(r" at .*", "", regex=True)
-    top = key.value_counts()
+    counts = where.value_counts()  # the same reason at another speed counts as one: the regex on the distinct ones
+    top = counts.groupby(counts.index.str.replace(r" at .*", "", regex=True), sort=False).sum()
+    top = top.sort_values(ascending=False, kind="stable")
     return f"{top.index[0]} ({int(top.iloc[0])} of {len(where)})"
 
 
