@@ -91,11 +91,18 @@ def compare(name: str, sequential: Path, out: Path) -> dict:
         got[label] = (json.loads((folder / "sizing.json").read_text()), pd.read_parquet(folder / "verdicts.parquet"))
     (s_sum, s_v), (b_sum, b_v) = got["sequential"], got["batch"]
     key = ["motor", "variant"]
-    s_v, b_v = s_v.sort_values(key).reset_index(drop=True), b_v.sort_values(key).reset_index(drop=True)
+    # the motors both ran; one the sequential path ran and the batch not: the batch's report says why
+    both = sorted(set(s_v["motor"]) & set(b_v["motor"]))
+    only = {m: b_sum["not_run"].get(m, "?") for m in sorted(set(s_v["motor"]) - set(b_v["motor"]))}
+    only_batch = sorted(set(b_v["motor"]) - set(s_v["motor"]))
+    s_v = s_v[s_v["motor"].isin(both)].sort_values(key).reset_index(drop=True)
+    b_v = b_v[b_v["motor"].isin(both)].sort_values(key).reset_index(drop=True)
     same_rows = len(s_v) == len(b_v) and (s_v[key].to_numpy() == b_v[key].to_numpy()).all()
     loop_cols = ["motor", "coverage", "judged", "not_simulated", "steer", "steer_misses", "start_rise_median",
                  "residual_K"]  # fmt: skip
     s_loop, b_loop = pd.DataFrame(s_sum["loop"]), pd.DataFrame(b_sum["loop"])
+    s_loop = s_loop[s_loop["motor"].isin(both)].reset_index(drop=True)
+    b_loop = b_loop[b_loop["motor"].isin(both)].reset_index(drop=True)
     reasons = [c for c in s_loop if c.startswith(("fails_", "steer_fails_"))]
     return {
         "spec": str(spec.relative_to(ROOT)) if spec.is_relative_to(ROOT) else spec.name,
@@ -103,7 +110,10 @@ def compare(name: str, sequential: Path, out: Path) -> dict:
         "chosen": {"sequential": s_sum["chosen"], "batch": b_sum["chosen"]},
         "steer": {"sequential": s_sum["steer"], "batch": b_sum["steer"]},
         "choices_equal": s_sum["chosen"] == b_sum["chosen"] and s_sum["steer"] == b_sum["steer"],
-        "verdict_rows": {"sequential": len(s_v), "batch": len(b_v)},
+        "motors_in_both": both,
+        "run_by_the_sequential_path_only": only,  # {motor: why the batch did not run it (its report)}
+        "run_by_the_batch_only": only_batch,
+        "verdict_rows_compared": {"sequential": len(s_v), "batch": len(b_v)},
         "verdict_rows_same_variants_and_motors": bool(same_rows),
         "verdict_differences": differences(s_v, b_v) if same_rows else "rows differ",
         "loop_differences": differences(s_loop[loop_cols + reasons], b_loop[loop_cols + reasons])
@@ -113,6 +123,34 @@ def compare(name: str, sequential: Path, out: Path) -> dict:
         "wall_s": {k: round(v, 1) for k, v in walls.items()},
         "phases_s": {"sequential": s_sum["wall_s"], "batch": b_sum["wall_s"]},
         "last_line": lines["batch"],
+    }
+
+
+def layout_effect(out: Path) -> dict:
+    """What a variant's numbers move by when only its batch's size changes (MuJoCo C, one motor, from ambient):
+    the sidewalk robot's 400 servo rows run alone and as the first half of the same rows twice; per column the
+    largest |difference|. The batch's differences from the sequential path are of this kind and size."""
+    import batchveh
+    from batchveh.analysis.motors import in_loop
+
+    spec = batchveh.load_spec(ROOT / "sweeps" / "sidewalk_robot.yaml")
+    df = batchveh.load(out / "sidewalk_robot" / "batch" / "servo")
+    motor = "faulhaber-3863H048CR_NPT015-i28"
+    _, _, alone = in_loop(spec, df, CATALOGUE, [motor], steer=motor, hot=False)
+    _, _, twice = in_loop(spec, pd.concat([df, df], ignore_index=True), CATALOGUE, [motor], steer=motor, hot=False)
+    a, b = alone[motor], twice[motor].iloc[: len(df)].reset_index(drop=True)
+    num = [c for c in a if pd.api.types.is_numeric_dtype(a[c]) and not pd.api.types.is_bool_dtype(a[c])]
+    diff = {c: float(np.nanmax(np.abs(a[c].to_numpy(float) - b[c].to_numpy(float)))) for c in num}
+    moved = {c: v for c, v in diff.items() if v > 0}
+    return {
+        "variants": len(df),
+        "columns_compared": len(num),
+        "columns_that_move": len(moved),
+        "largest_abs": max(moved.values(), default=0.0),
+        "steer_track_err_deg_abs": diff.get("steer_track_err_deg", 0.0),
+        "booleans_and_strings_equal": all(
+            (a[c].astype(str).to_numpy() == b[c].astype(str).to_numpy()).all() for c in a if c not in num
+        ),
     }
 
 
@@ -127,9 +165,11 @@ def main() -> None:
     got = {name: compare(name, Path(args.sequential).resolve(), out) for name in (args.only or VEHICLES)}
     for name, r in got.items():
         print(f"{name:20} chosen {r['chosen']['batch']} (sequential {r['chosen']['sequential']}); verdict rows "
-              f"{r['verdict_rows']['batch']}/{r['verdict_rows']['sequential']}, differences "
+              f"{r['verdict_rows_compared']['batch']}/{r['verdict_rows_compared']['sequential']} of "
+              f"{r['motors_in_both']}, differences "
               f"{r['verdict_differences'] or 'none'}; loop {r['loop_differences'] or 'the same'}; wall "
-              f"{r['wall_s']['batch']} s against {r['wall_s']['sequential']} s")  # fmt: skip
+              f"{r['wall_s']['batch']} s against {r['wall_s']['sequential']} s; sequential only: "
+              f"{r['run_by_the_sequential_path_only']}")  # fmt: skip
     if args.only:
         return
     JSON.write_text(
@@ -141,6 +181,7 @@ def main() -> None:
                 "sequential_commit": SEQUENTIAL_COMMIT,
                 "rtol": RTOL,
                 "vehicles": got,
+                "engine_layout_effect": layout_effect(out),
             },
             indent=1,
         )
