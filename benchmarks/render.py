@@ -341,6 +341,31 @@ def _reruns_det(det: dict, xladet: dict) -> str:
     )
 
 
+def _sizing(kind: str) -> Callable[..., str]:
+    """benchmarks/sizing.py's `first` or `warm` sessions: their walls, against the plain sweep's in the same call."""
+
+    def figure(*ds: dict) -> str:
+        walls, ratios, sweeps, loops = [], [], [], []
+        for d in ds:
+            sweep = next(r["wall_s"] for r in d["runs"] if r["kind"] == "sweep")
+            sweeps.append(sweep)
+            for r in (r for r in d["runs"] if r["kind"] == kind):
+                walls.append(r["wall_s"])
+                ratios.append(r["wall_s"] / sweep)
+                loops.append(r["phases_s"]["in the loop"])
+
+        def span(v: list[float], f: str = ".1f") -> str:
+            return f"{min(v):{f}}" if min(v) == max(v) else f"{min(v):{f}}-{max(v):{f}}"
+
+        runs = f"{len(walls)} run{'s' * (len(walls) > 1)}, {len(ds)} host{'s' * (len(ds) > 1)}"
+        return (
+            f"**{span(walls)} s** ({runs}); {span(ratios, '.2f')}x the plain sweep of the same conditions "
+            f"({span(sweeps)} s); in the loop {span(loops)} s"
+        )
+
+    return figure
+
+
 ROWS = [
     Row(
         "The warp engine (MuJoCo Warp 4.0 as its physics: slip tyre, drive, statistics) against MuJoCo Warp alone "
@@ -389,6 +414,53 @@ ROWS = [
         "three fresh H100 hosts, 16 cores each (the third after issue 46's review fixes)",
         "`python benchmarks/end_to_end.py benchmarks/slope_100k.yaml --warm 2` (its `first` run)",
     ),  # fmt: skip
+    Row(
+        "A sizing session, warm caches: `python -m batchveh.size` on the 60-80 kg robot (sweeps/delivery_robot.yaml, "
+        "friction swept too), 100,000 LHS conditions x 5 s, one candidate in the loop (issue 52: at most 60 s)",
+        ["h200-sizing-robot-100000-b.json", "h200-sizing-robot-100000.json"],
+        _sizing("warm"),
+        "two fresh H200 hosts, 16 cores each",
+        "`python benchmarks/sizing.py robot --n 100000 --backend warp --warm 2`",
+    ),
+    Row(
+        "The same session's first run on each fresh host (Warp builds its kernels, JAX compiles; issue 52: at most "
+        "90 s)",
+        ["h200-sizing-robot-100000-b.json", "h200-sizing-robot-100000.json"],
+        _sizing("first"),
+        "two fresh H200 hosts, 16 cores each",
+        "`python benchmarks/sizing.py robot --n 100000 --backend warp --warm 2` (its `first` run)",
+    ),
+    Row(
+        "The robot's session before the loop started at the screen's choice and before the screen's 100,000-row "
+        "speed-ups: two candidates in the loop's batch",
+        ["h200-sizing-robot-100000-a-two-candidates.json"],
+        _sizing("warm"),
+        "one fresh H200 host, 16 cores",
+        "`python benchmarks/sizing.py robot --n 100000 --backend warp` at dc72616",
+    ),
+    Row(
+        "The seed's session (below) before the screen's 100,000-row speed-ups",
+        ["h200-sizing-seed-100000-a.json"],
+        _sizing("warm"),
+        "one fresh H200 host, 16 cores",
+        "`python benchmarks/sizing.py seed --n 100000 --backend warp` at dc72616",
+    ),
+    Row(
+        "A sizing session on the seed, warm caches: benchmarks/slope_100k.yaml (100,000 x 10 s) at `--share 0.9`, "
+        "one candidate, two runs in the loop (issue 52: at most 45 s; the loop's two runs are two sweeps' chunks)",
+        ["h200-sizing-seed-100000-b.json", "h200-sizing-seed-100000.json"],
+        _sizing("warm"),
+        "two fresh H200 hosts, 16 cores each",
+        "`python benchmarks/sizing.py seed --n 100000 --backend warp --warm 2`",
+    ),
+    Row(
+        "A sizing session on 2 cores: the robot (friction swept), 400 LHS conditions, MuJoCo C (issue 52: within 4x "
+        "its servo sweep)",
+        ["cpu-2core-sizing-robot-400.json"],
+        _sizing("warm"),
+        TWO_CORES,
+        "`python benchmarks/sizing.py robot --n 400 --backend mujoco --warm 2`",
+    ),
     Row(
         "The warp engine against MuJoCo Warp alone after issue 46's review fixes, 131,072 variants x 400 steps, slip "
         "tyre: its parameters converted on the device (before) or on the host (now), alternated in one call",

@@ -154,6 +154,36 @@ def layout_effect(out: Path) -> dict:
     }
 
 
+def two_in_one_batch(out: Path) -> dict:
+    """Two drives in one batch against each alone (`in_loop`, MuJoCo C, hot): the sidewalk robot's 400 servo rows
+    with the Faulhaber 3564K024B and 3863H048CR (the two the sequential path ran). Per motor: its verdict booleans
+    (fails_<reason>, steer_fails_<reason>, judged) equal, its coverage and hot start equal, and the largest
+    |difference| of any number (the engine's batch-layout effect, `layout_effect`)."""
+    import batchveh
+    from batchveh.analysis.motors import in_loop
+
+    spec = batchveh.load_spec(ROOT / "sweeps" / "sidewalk_robot.yaml")
+    df = batchveh.load(out / "sidewalk_robot" / "batch" / "servo")
+    pair = ["faulhaber-3564K024B_NPT015-i40", "faulhaber-3863H048CR_NPT015-i28"]
+    _, table, together = in_loop(spec, df, CATALOGUE, pair, steer=pair[1], stop_at_first=False)
+    got = {}
+    for name in pair:
+        _, alone_table, alone = in_loop(spec, df, CATALOGUE, [name], steer=pair[1])
+        a, b = together[name], alone[name]
+        flags = [c for c in a if c.startswith(("fails_", "steer_fails_")) or c == "judged"]
+        num = [c for c in a if pd.api.types.is_numeric_dtype(a[c]) and not pd.api.types.is_bool_dtype(a[c])]
+        row, one = table.set_index("motor").loc[name], alone_table.iloc[0]
+        got[name] = {
+            "verdict_flags_equal": bool((a[flags].to_numpy() == b[flags].to_numpy()).all()),
+            "coverage": [float(row["coverage"]), float(one["coverage"])],
+            "start_rise_median_K": [float(row["start_rise_median"]), float(one["start_rise_median"])],
+            "largest_abs_number_difference": float(
+                max(np.nanmax(np.abs(a[c].to_numpy(float) - b[c].to_numpy(float))) for c in num)
+            ),
+        }
+    return got
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sequential", required=True, help=f"a checkout of {SEQUENTIAL_COMMIT} (git worktree add)")
@@ -182,6 +212,7 @@ def main() -> None:
                 "rtol": RTOL,
                 "vehicles": got,
                 "engine_layout_effect": layout_effect(out),
+                "two_drives_in_one_batch": two_in_one_batch(out),
             },
             indent=1,
         )
