@@ -182,16 +182,29 @@ def candidates(screen_table: Any, best: str | None, share: float | None = None) 
     return ranked[i - 1 if below else i :]
 
 
-def sweep_runner(folder: Path, catalogue: str, backend: str | None, executor: Any = None) -> Any:
-    """The loop's Runner (`batchveh.analysis.motors.Runner`): each run a sweep of its table (method zip) in
-    `folder`/<its inputs' digest>, on `backend`, through `executor(spec, backend, n)` (a fresh executor per run,
-    or None: this process), resumed where it was left: a killed session runs again only the chunks not
-    written. The digest covers the table, the vehicle, the scenario, the catalogue's bytes and the backend,
-    so a run whose inputs changed never reads another's results."""
+def inputs_digest(catalogue: bytes, run_spec: Any, table: dict, backend: str | None) -> str:
+    """The sha256 of what a run in the loop reads: the catalogue's bytes, the vehicle, the scenario, the window,
+    the filter, the spec's YAML (its solver, its precision, ...), the backend and the table's names and values."""
     import hashlib
+    import json
 
     import numpy as np
 
+    h = hashlib.sha256(catalogue)
+    h.update(repr((run_spec.vehicle, run_spec.scenario, run_spec.window, run_spec.lowpass_s, backend)).encode())
+    h.update(json.dumps(run_spec.raw, sort_keys=True, default=str).encode())
+    for k in sorted(table):
+        h.update(k.encode())
+        h.update(np.ascontiguousarray(table[k], float).tobytes())
+    return h.hexdigest()
+
+
+def sweep_runner(folder: Path, catalogue: str, backend: str | None, executor: Any = None) -> Any:
+    """The loop's Runner (`batchveh.analysis.motors.Runner`): each run a sweep of its table (method zip) in
+    `folder`/<its inputs' digest>, on `backend`, through `executor(spec, n)` (a fresh executor per run, or
+    None: this process), resumed where it was left: a killed session runs again only the chunks not written.
+    The digest covers the table, the vehicle, the scenario, the spec's YAML, the catalogue's bytes and the
+    backend, so a run whose inputs changed never reads another's results."""
     from batchveh.stepping.stats import STATUS
     from batchveh.sweep import run_sweep
     from batchveh.sweeping.results import load
@@ -200,12 +213,7 @@ def sweep_runner(folder: Path, catalogue: str, backend: str | None, executor: An
     cat_bytes = Path(catalogue).read_bytes()
 
     def run(run_spec: Any, table: dict) -> Any:
-        h = hashlib.sha256(cat_bytes)
-        h.update(repr((run_spec.vehicle, run_spec.scenario, run_spec.window, run_spec.lowpass_s, backend)).encode())
-        for k in sorted(table):
-            h.update(k.encode())
-            h.update(np.ascontiguousarray(table[k], float).tobytes())
-        digest = h.hexdigest()
+        digest = inputs_digest(cat_bytes, run_spec, table, backend)
         n = len(next(iter(table.values())))
         where = folder / digest[:16]
         loop_spec = dataclasses.replace(

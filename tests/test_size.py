@@ -210,3 +210,24 @@ def test_the_loop_runs_the_motor_below_the_choice_only_where_its_screen_is_near_
     assert candidates(table, "a", 0.99) == ["a", "b", "c", "d"]
     why = not_run(table, ["c", "d"], ["c"], "c", "c")
     assert "more than 5 points below the share" in why["b"] and "smaller motor (c) covers" in why["d"]
+
+
+def test_a_loop_run_whose_inputs_change_gets_another_folder():
+    """A run in the loop resumes from OUT/loop/<digest>: the digest changes with the catalogue's bytes, a table
+    value, the table's names, the backend and the spec's YAML, and not otherwise."""
+    import dataclasses
+
+    import batchveh
+    from batchveh.size import inputs_digest
+
+    spec = batchveh.load_spec(SPEC)
+    cat = CATALOGUE.read_bytes()
+    table = {"payload.mass": np.array([1.0, 2.0]), "motors.drive_start_rise": np.zeros(2)}
+    base = inputs_digest(cat, spec, table, "mujoco")
+    assert inputs_digest(cat, spec, {k: v.copy() for k, v in table.items()}, "mujoco") == base
+    assert inputs_digest(cat + b"\n# edited", spec, table, "mujoco") != base
+    assert inputs_digest(cat, spec, {**table, "payload.mass": np.array([1.0, 2.5])}, "mujoco") != base
+    assert inputs_digest(cat, spec, {**table, "motors.steer_start_rise": np.zeros(2)}, "mujoco") != base
+    assert inputs_digest(cat, spec, table, "warp") != base
+    raw = {**spec.raw, "solver": {"iterations": 3}}
+    assert inputs_digest(cat, dataclasses.replace(spec, raw=raw), table, "mujoco") != base
