@@ -10,9 +10,12 @@ Three phases, one progress bar:
 2. the screen: every catalogue motor against that demand (`batchveh.analysis.motors.screen`), for the drives
    and, unless --steer names one, for the steering; a straight line on its steady window, a mission on its whole
    cycle and each segment (--span picks one segment);
-3. in the loop (`in_loop`): the screen's choice and the next smaller motor, then larger ones, smallest first, as
-   DC motors driven by batchveh's drive, from the hot steady state of the run repeated (the spec's `duty`: the
-   share of the time it runs, 1 for back to back), until one covers --share of the variants it could simulate.
+3. in the loop (`in_loop`): the screen's choice (and the next smaller motor where its screen lies within 5
+   points of --share), then larger ones, smallest first, as DC motors driven by batchveh's drive, from the hot
+   steady state of the run repeated (the spec's `duty`: the share of the time it runs, 1 for back to back), until
+   one covers --share of the variants it could simulate. The candidates run as one batch (`batch_of`), each run a
+   sweep of its own in OUT/loop/<digest of its inputs> (`sweep_runner`): --executor gpus or ray spreads it, and a
+   session killed and started again reads back every finished chunk.
    Each run also confirms the steering motor: where the steering misses more than 1 - share of the variants on
    its own criteria (STEER_REASONS: lost its angle, at its current limit or voltage line for more than 5% of the
    run, RMS, heat, gearhead), the next larger steering motor runs with the same drive. A steering miss is never
