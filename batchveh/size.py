@@ -39,6 +39,7 @@ from batchveh.config import ConfigError, OneLineParser
 
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_INTERRUPTED = 0, 2, 3, 130
 NEAR = 0.05  # without a screen choice, the loop runs the motors within 5 points of the best screen coverage
+BATCH = 2  # the loop's drives per batch where the screen cannot say which covers (`batch_of`)
 HOT_RUNS = 2  # in_loop's runs per candidate: from ambient, then from the hot start in closed form (`iterations` 1)
 
 
@@ -163,10 +164,10 @@ def not_run(table: Any, runs: list[str], ran: list[str], chosen: str | None, bes
 def batch_of(pending: list[str], best: str | None) -> list[str]:
     """The drives of the loop's next batch (run as one sweep, `in_loop`), from `pending` (smallest first): up
     to the screen's choice `best` where it is pending (the one below it and it, as the screen expects it to
-    cover), else all of them (the screen has no choice, or the loop found it short: it cannot tell which
-    covers). The loop reads the batch in order and stops at the first that covers, so its verdicts are those of
+    cover), else the next BATCH of them (the screen has no choice, or the loop found it short: it cannot tell
+    which covers). The loop reads the batch in order and stops at the first that covers, so its verdicts are those of
     one candidate at a time; a batch's drives after the first that covers ran for nothing."""
-    return pending[: pending.index(best) + 1] if best in pending else list(pending)
+    return pending[: pending.index(best) + 1] if best in pending else pending[:BATCH]
 
 
 def candidates(screen_table: Any, best: str | None, share: float | None = None) -> list[str]:
@@ -187,19 +188,31 @@ def candidates(screen_table: Any, best: str | None, share: float | None = None) 
 
 def inputs_digest(catalogue: bytes, run_spec: Any, table: dict, backend: str | None) -> str:
     """The sha256 of what a run in the loop reads: the catalogue's bytes, the vehicle, the scenario, the window,
-    the filter, the spec's YAML (its solver, its precision, ...), the backend and the table's names and values."""
+    the filter, the spec's YAML (its solver, its precision, ...), the backend, batchveh's version and the table's
+    names and values."""
     import hashlib
     import json
 
     import numpy as np
 
+    import batchveh
+
     h = hashlib.sha256(catalogue)
     h.update(repr((run_spec.vehicle, run_spec.scenario, run_spec.window, run_spec.lowpass_s, backend)).encode())
+    h.update(batchveh.__version__.encode())  # another release may model the motors otherwise
     h.update(json.dumps(run_spec.raw, sort_keys=True, default=str).encode())
     for k in sorted(table):
         h.update(k.encode())
         h.update(np.ascontiguousarray(table[k], float).tobytes())
     return h.hexdigest()
+
+
+def unwritten(done: dict[str, Any], where: Path) -> None:
+    """One ConfigError line where a sweep (`run_sweep`'s summary `done`, in `where`) left chunks unwritten (an
+    executor's that kept failing): a sizing on fewer variants than asked would say nothing of the rest."""
+    if done.get("failed"):
+        chunks = ", ".join(f"{c} ({why})" for c, why in sorted(done["failed"].items()))
+        raise ConfigError(f"{where}: chunks not written: {chunks}; run the command again to retry them")
 
 
 def sweep_runner(folder: Path, catalogue: str, backend: str | None, executor: Any = None) -> Any:
@@ -234,17 +247,24 @@ def sweep_runner(folder: Path, catalogue: str, backend: str | None, executor: An
                 },
             },  # fmt: skip
         )
-        done = run_sweep(
-            loop_spec,
-            out=where,
-            backend=backend,
-            resume=True,
-            progress=False,
-            max_variants=n,
-            executor=executor(loop_spec, n) if executor is not None else None,
-        )
+        try:
+            done = run_sweep(
+                loop_spec,
+                out=where,
+                backend=backend,
+                resume=True,
+                progress=False,
+                max_variants=n,
+                executor=executor(loop_spec, n) if executor is not None else None,
+            )
+        except ConfigError as err:  # results made with other settings (a version, a chunk size) from these inputs
+            why = f"a run in the loop: remove {where}, its inputs are these, and run again"
+            raise ConfigError(f"{err} ({why})") from None
+        unwritten(done, where)
         run.chunks_s.append(done["wall_s"])
         res = load(where)
+        if len(res) != n:
+            raise ConfigError(f"{where}: {len(res)} rows for {n} variants; allowed: remove it and run again")
         res["status_code"] = res["status"].map(codes).to_numpy()
         return res.drop(columns=["variant", "status", *table])
 
@@ -316,6 +336,7 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
 
     spec = load_spec(args.spec)
     cat = catalogue_of(args.catalogue)
+    catalogue = str(Path(args.catalogue).resolve())  # the runs read it, on Ray's workers too: a path from anywhere
     if args.steer is not None:
         pick(cat, args.steer, "--steer")
     if not 0 < args.share <= 1:
@@ -342,6 +363,7 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
         raise ConfigError(
             f"{err} (the servo sweep's results in {out / 'servo'}: remove them or give another --out)"
         ) from None
+    unwritten(servo_run, out / "servo")
     df = load(out / "servo")
     walls["servo sweep"] = time.perf_counter() - t0
     walls["servo sweep: its chunks"] = servo_run["wall_s"]  # the rest: the engine's start and the rows' load
@@ -370,7 +392,7 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
 
     looped = resolve_backend(args.backend or spec.backend)
     looped = "mujoco" if looped == "mjx" else looped  # MJX's JAX implementation has no dcmotor: MuJoCo C runs it
-    runner = sweep_runner(out / "loop", args.catalogue, looped, executor)
+    runner = sweep_runner(out / "loop", catalogue, looped, executor)
     t0 = time.perf_counter()
     pending = list(runs)
     while pending and chosen is None:  # the drives smallest first, a batch at a time (`batch_of`)
@@ -379,7 +401,7 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
         bar.set_description(f"{spec.name}: in the loop, {', '.join(batch)}, steering {steer}")
         bar.refresh()
         _, t, d = in_loop(
-            spec, df, args.catalogue, batch, steer=steer, share=args.share, duty=spec.duty, stop_at_first=False,
+            spec, df, catalogue, batch, steer=steer, share=args.share, duty=spec.duty, stop_at_first=False,
             run=runner,
         )  # fmt: skip
         bar.update(n * HOT_RUNS * len(batch))

@@ -272,3 +272,13 @@ def test_the_candidates_in_one_batch_equal_one_run_each(tmp_path):
         row = table.set_index("motor").loc[name]
         assert row["start_rise_median"] == alone_table["start_rise_median"].iloc[0] > 0
     assert (together[SMALL]["drive_lf_rms"] != together[BIG]["drive_lf_rms"]).all()  # two motors, not one twice
+
+
+def test_the_limiting_reason_counts_a_reason_at_any_speed_as_one_and_ties_go_to_the_first():
+    import pandas as pd
+
+    from batchveh.analysis.motors import _limiting
+
+    assert _limiting(pd.Series(["B at 1", "A at 1", "A at 1", "B at 2"])) == "B (2 of 4)"
+    assert _limiting(pd.Series(["x: peak at 1 m/s", "y: rms", "x: peak at 2 m/s", "y: rms"])) == "x: peak (2 of 4)"
+    assert _limiting(pd.Series(["y: rms", "x: peak at 1", "x: peak at 2", "x: peak at 3"])) == "x: peak (3 of 4)"

@@ -231,3 +231,20 @@ def test_a_loop_run_whose_inputs_change_gets_another_folder():
     assert inputs_digest(cat, spec, table, "warp") != base
     raw = {**spec.raw, "solver": {"iterations": 3}}
     assert inputs_digest(cat, dataclasses.replace(spec, raw=raw), table, "mujoco") != base
+
+
+def test_the_loop_batches_at_most_two_where_the_screen_cannot_say():
+    from batchveh.size import batch_of
+
+    assert batch_of(["c", "d", "e"], None) == ["c", "d"]
+    assert batch_of(["c", "d", "e"], "b") == ["c", "d"]  # the choice ran short: the next two
+
+
+def test_a_sweep_that_left_chunks_unwritten_is_one_line(tmp_path):
+    """An executor whose chunks kept failing writes the rest: the sizing refuses to go on with fewer variants."""
+    from batchveh.config import ConfigError
+    from batchveh.size import unwritten
+
+    unwritten({"failed": {}}, tmp_path)
+    with pytest.raises(ConfigError, match=r"chunks not written: 3 \(worker died\); run the command again"):
+        unwritten({"failed": {3: "worker died"}}, tmp_path)

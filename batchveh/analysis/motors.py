@@ -431,8 +431,11 @@ def _limiting(where: pd.Series) -> str:
     """The commonest segment and reason among a motor's failing variants, and how many fail there."""
     if not len(where):
         return ""
-    counts = where.value_counts()  # the same reason at another speed counts as one: the regex on the distinct ones
-    top = counts.groupby(counts.index.str.replace(r" at .*", "", regex=True), sort=False).sum()
+    # the same reason at another speed counts as one: the regex on the distinct strings, in the order they first
+    # come (ties go to the reason met first, as value_counts on every string's key would)
+    first = pd.unique(where.to_numpy())
+    counts = where.value_counts().reindex(first)
+    top = counts.groupby(pd.Index(first).str.replace(r" at .*", "", regex=True), sort=False).sum()
     top = top.sort_values(ascending=False, kind="stable")
     return f"{top.index[0]} ({int(top.iloc[0])} of {len(where)})"
 
@@ -559,15 +562,19 @@ def engine_runner(backend: str | None = None) -> Runner:
     """A Runner on one engine in this process: MuJoCo C (None, 'mujoco') or MuJoCo Warp ('warp'; MJX's JAX
     implementation has no dcmotor)."""
     from batchveh.engines import make_engine, resolve_backend
-    from batchveh.stepping.batch import make_batch
+    from batchveh.stepping.batch import apply_solver, make_batch
     from batchveh.stepping.motor_stats import named
 
     name_of = resolve_backend(backend or "mujoco")
 
     def run(run_spec: Any, table: dict) -> pd.DataFrame:
         n = len(next(iter(table.values())))
-        engine = make_engine(name_of, run_spec.scenario, run_spec.stats_config(), None, n)
-        cols = engine.run(make_batch(run_spec.vehicle, run_spec.scenario, table))
+        precision = getattr(run_spec, "precision", "f32")
+        engine = make_engine(name_of, run_spec.scenario, run_spec.stats_config(), None, n, precision=precision)
+        batch = make_batch(run_spec.vehicle, run_spec.scenario, table)
+        if getattr(run_spec, "solver", None) is not None:  # the spec's solver settings, as a sweep's chunks take
+            apply_solver(batch.model, run_spec.solver)
+        cols = engine.run(batch)
         return pd.DataFrame({key: np.asarray(v) for key, v in named(cols).items()})
 
     return run
@@ -674,9 +681,9 @@ def in_loop(
     run end where it started (`_hot_start`: the one-node winding's back-to-back fixed point in closed form from
     the previous run, each drive and steering group at its hottest winding): the thermal state of back-to-back
     runs, in two runs. The row gives the median start
-    rise and the largest |end - start| left (K). `stop_at_first`: report no candidate after the first that
-    covers (all of the batch ran). `run`: how the runs are run (a Runner; default `engine_runner(backend)`:
-    `backend` None for 'mujoco', or 'warp'; MJX's JAX implementation has no dcmotor)."""
+    rise and the largest |end - start| left (K). `stop_at_first`: the candidates one at a time, none run after the
+    first that covers (else all in one batch, each reported). `run`: how the runs are run (a Runner; default
+    `engine_runner(backend)`: `backend` None for 'mujoco', or 'warp'; MJX's JAX implementation has no dcmotor)."""
     from batchveh.model.motors import load_catalogue, pick
     from batchveh.stepping.motor_stats import LIMITED_SHARE
 
@@ -698,7 +705,9 @@ def in_loop(
     servo = df.reset_index(drop=True)
     rows, detail, best = [], {}, None
     cs = cat[steer].resolved(steer)
-    for batch in batches(cat, list(candidates)):
+    # stop_at_first: one candidate at a time, none run past the first that covers; else as few batches as fit
+    groups = [[name] for name in candidates] if stop_at_first else batches(cat, list(candidates))
+    for batch in groups:
         for name, (res, start, residual) in zip(batch, _hot_runs(spec, servo, catalogue, cat, batch, steer, runs,
                                                                  duty, run), strict=True):  # fmt: skip
             motor = cat[name]
