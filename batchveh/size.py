@@ -170,6 +170,29 @@ def batch_of(pending: list[str], best: str | None) -> list[str]:
     return pending[: pending.index(best) + 1] if best in pending else pending[:BATCH]
 
 
+def read_batch(batch: list[str], table: Any, steer: str, ranked_steer: list[str], share: float) -> dict[str, Any]:
+    """A batch's loop table (`in_loop`'s, a row per drive of `batch`, in order) read as one drive at a time would
+    be: each row is the steering's run (`steer_rows`); where the steering `steer` misses more than 1 - share and
+    `ranked_steer` holds a larger one, the steering walks up and the batch stops there (that drive runs again with
+    it); else the row is the drive's (`rows`, `judged`), and the first that covers `share` is `chosen`. `done`:
+    the drives of the batch read to the end (the pending list goes on after them)."""
+    out: dict[str, Any] = {"steer_rows": [], "rows": [], "judged": [], "chosen": None, "steer": steer}
+    out["done"] = len(batch)
+    for j, name in enumerate(batch):
+        row = table.iloc[[j]].reset_index(drop=True)
+        out["steer_rows"].append(row.assign(drive=name))
+        larger = ranked_steer[ranked_steer.index(out["steer"]) + 1 :]
+        if row["steer_coverage"].iloc[0] < share and larger:
+            out["steer"], out["done"] = larger[0], j  # the steering's own miss: the next larger, from this drive
+            break
+        out["rows"].append(row)
+        out["judged"].append(name)
+        if row["coverage"].iloc[0] >= share:
+            out["chosen"] = name
+            break
+    return out
+
+
 def candidates(screen_table: Any, best: str | None, share: float | None = None) -> list[str]:
     """The motors to run in the loop, smallest first: from the one next below the screen's choice (the screen is
     conservative: the loop may take it) upwards, that one only where its screen coverage lies within NEAR of
@@ -405,21 +428,11 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
             run=runner,
         )  # fmt: skip
         bar.update(n * HOT_RUNS * len(batch))
-        done = len(batch)
-        for j, name in enumerate(batch):  # read in order, as one candidate at a time would be
-            row = t.iloc[[j]].reset_index(drop=True)
-            steer_rows.append(row.assign(drive=name))
-            larger = ranked_steer[ranked_steer.index(steer) + 1 :]
-            if row["steer_coverage"].iloc[0] < args.share and args.steer is None and larger:
-                steer = larger[0]  # the steering fails on its own criteria: the next larger, from this drive again
-                done = j
-                break
-            rows.append(row)
-            detail[name] = d[name]
-            if row["coverage"].iloc[0] >= args.share:
-                chosen = name
-                break
-        pending = pending[done:]
+        read = read_batch(batch, t, steer, ranked_steer if args.steer is None else [steer], args.share)
+        steer_rows += read["steer_rows"]
+        rows += read["rows"]
+        detail.update({name: d[name] for name in read["judged"]})
+        chosen, steer, pending = read["chosen"], read["steer"], pending[read["done"] :]
     bar.total = bar.n
     bar.set_description(f"{spec.name}: report")
     bar.refresh()

@@ -248,3 +248,19 @@ def test_a_sweep_that_left_chunks_unwritten_is_one_line(tmp_path):
     unwritten({"failed": {}}, tmp_path)
     with pytest.raises(ConfigError, match=r"chunks not written: 3 \(worker died\); run the command again"):
         unwritten({"failed": {3: "worker died"}}, tmp_path)
+
+
+def test_a_batch_is_read_as_one_drive_at_a_time():
+    """The loop's batch read in order: a steering miss walks the steering up and stops the batch at that drive (it
+    runs again); a drive that covers is chosen and the drives after it are not reported; with the steering given
+    (no larger to walk to), its miss is reported and the drive judged."""
+    from batchveh.size import read_batch
+
+    table = pd.DataFrame({"coverage": [0.5, 0.995, 1.0], "steer_coverage": [1.0, 0.9, 1.0]})
+    got = read_batch(["a", "b", "c"], table, "s1", ["s1", "s2"], 0.99)
+    assert (got["steer"], got["done"], got["judged"], got["chosen"]) == ("s2", 1, ["a"], None)
+    assert [r["drive"].iloc[0] for r in got["steer_rows"]] == ["a", "b"]
+    again = read_batch(["b", "c"], table.iloc[1:].assign(steer_coverage=1.0), "s2", ["s1", "s2"], 0.99)
+    assert (again["chosen"], again["judged"], again["done"]) == ("b", ["b"], 2)
+    given = read_batch(["a", "b", "c"], table, "s1", ["s1"], 0.99)
+    assert (given["steer"], given["judged"], given["chosen"]) == ("s1", ["a", "b"], "b")
