@@ -569,11 +569,9 @@ def engine_runner(backend: str | None = None) -> Runner:
 
     def run(run_spec: Any, table: dict) -> pd.DataFrame:
         n = len(next(iter(table.values())))
-        precision = getattr(run_spec, "precision", "f32")
-        engine = make_engine(name_of, run_spec.scenario, run_spec.stats_config(), None, n, precision=precision)
+        engine = make_engine(name_of, run_spec.scenario, run_spec.stats_config(), None, n, precision=run_spec.precision)
         batch = make_batch(run_spec.vehicle, run_spec.scenario, table)
-        if getattr(run_spec, "solver", None) is not None:  # the spec's solver settings, as a sweep's chunks take
-            apply_solver(batch.model, run_spec.solver)
+        apply_solver(batch.model, run_spec.solver)  # the spec's solver settings, as a sweep's chunks take them
         cols = engine.run(batch)
         return pd.DataFrame({key: np.asarray(v) for key, v in named(cols).items()})
 
