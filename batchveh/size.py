@@ -40,7 +40,14 @@ from batchveh.config import ConfigError, OneLineParser
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_INTERRUPTED = 0, 2, 3, 130
 NEAR = 0.05  # without a screen choice, the loop runs the motors within 5 points of the best screen coverage
 BATCH = 2  # the loop's drives per batch where the screen cannot say which covers (`batch_of`)
-HOT_RUNS = 2  # in_loop's runs per candidate: from ambient, then from the hot start in closed form (`iterations` 1)
+HOT_RUNS = 2  # in_loop's runs per candidate (`iterations` 1): from ambient, then from the hot start in closed form
+
+
+def loop_runs(spec: Any) -> int:
+    """The runs of every condition a candidate takes in the loop: one on a straight line (its hot run in closed
+    form from it, `analysis.motors.hot_columns`, run again only for the conditions that cannot say), HOT_RUNS on
+    a mission (its spans' electric columns have no closed form)."""
+    return HOT_RUNS if spec.stats_config().mission is not None else 1
 
 
 def servo_spec(spec: Any, out: Path) -> Any:
@@ -369,7 +376,8 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
         raise FileExistsError(f"{out} holds a report; give --overwrite to replace it (its servo sweep is reused)")
     demand = servo_spec(spec, out)
     n = count_variants(demand, args.limit)
-    bar = tqdm(total=n * (1 + HOT_RUNS * 2), unit="run", disable=args.quiet, desc=f"{spec.name}: servo sweep")
+    per = loop_runs(spec)
+    bar = tqdm(total=n * (1 + per * 2), unit="run", disable=args.quiet, desc=f"{spec.name}: servo sweep")
     walls: dict[str, float] = {}
     t0 = time.perf_counter()
     try:
@@ -420,14 +428,14 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
     pending = list(runs)
     while pending and chosen is None:  # the drives smallest first, a batch at a time (`batch_of`)
         batch = batch_of(pending, best)
-        bar.total = bar.n + n * HOT_RUNS * len(batch)
+        bar.total = bar.n + n * per * len(batch)
         bar.set_description(f"{spec.name}: in the loop, {', '.join(batch)}, steering {steer}")
         bar.refresh()
         _, t, d = in_loop(
             spec, df, catalogue, batch, steer=steer, share=args.share, duty=spec.duty, stop_at_first=False,
             run=runner,
         )  # fmt: skip
-        bar.update(n * HOT_RUNS * len(batch))
+        bar.update(n * per * len(batch))
         read = read_batch(batch, t, steer, ranked_steer if args.steer is None else [steer], args.share)
         steer_rows += read["steer_rows"]
         rows += read["rows"]
@@ -528,10 +536,11 @@ def dry_run(args: Any) -> str:
     n = count_variants(spec, args.limit)
     backend = resolve_backend(args.backend or spec.backend)
     seconds, basis = estimate(backend, n * spec.scenario.n_steps, spec.vehicle.tyre.model, 0, n)
-    loop = seconds * HOT_RUNS
+    per = loop_runs(spec)
+    loop = seconds * per
     return (
         f"{spec.name}: the servo sweep, {n:,} variants ({seconds:.0f} s, {basis}); the screen of {len(cat)} motors; "
-        f"then each candidate in the loop, {HOT_RUNS} runs, about {loop:.0f} s (two to all {len(cat)}: "
+        f"then each candidate in the loop, {per} run{'s' * (per > 1)}, about {loop:.0f} s (two to all {len(cat)}: "
         f"{2 * loop:.0f}-{len(cat) * loop:.0f} s); report in {args.out or f'{spec.output}-sizing'}"
     )
 

@@ -416,15 +416,39 @@ ROWS = [
     ),  # fmt: skip
     Row(
         "A sizing session, warm caches: `python -m batchveh.size` on the 60-80 kg robot (sweeps/delivery_robot.yaml, "
-        "friction swept too), 100,000 LHS conditions x 5 s, one candidate in the loop (issue 52: at most 60 s)",
+        "friction swept too), 100,000 LHS conditions x 5 s, one candidate in the loop, its hot run in closed form from "
+        "its cold one (issue 52: at most 60 s)",
+        ["h100-sizing-robot-100000-fresh.json", "h100-sizing-robot-100000-after-seed.json"],
+        _sizing("warm"),
+        "two H100 hosts, 16 cores each (the second had run the seed's sessions first)",
+        "`python benchmarks/sizing.py robot --n 100000 --backend warp --warm 1`",
+    ),
+    Row(
+        "The same session's first run on a fresh host (Warp builds its kernels, JAX compiles; issue 52: at most 90 s)",
+        ["h100-sizing-robot-100000-fresh.json"],
+        _sizing("first"),
+        "one fresh H100 host, 16 cores",
+        "`python benchmarks/sizing.py robot --n 100000 --backend warp --warm 1` (its `first` run)",
+    ),
+    Row(
+        "A sizing session on the seed, warm caches: benchmarks/slope_100k.yaml (100,000 x 10 s) at `--share 0.9`, "
+        "one candidate, its hot run in closed form from its cold one, run again for 1.7% of the conditions (issue 52: "
+        "at most 45 s)",
+        ["h100-sizing-seed-100000.json", "h100-sizing-seed-100000-2.json"],
+        _sizing("warm"),
+        "two H100 hosts, 16 cores each",
+        "`python benchmarks/sizing.py seed --n 100000 --backend warp --warm 2`",
+    ),
+    Row(
+        "The robot's session with two runs in the loop (from ambient, then from the hot start), and MJX imported by "
+        "the warp engine, warm caches",
         ["h200-sizing-robot-100000-b.json", "h200-sizing-robot-100000.json"],
         _sizing("warm"),
         "two fresh H200 hosts, 16 cores each",
         "`python benchmarks/sizing.py robot --n 100000 --backend warp --warm 2`",
     ),
     Row(
-        "The same session's first run on each fresh host (Warp builds its kernels, JAX compiles; issue 52: at most "
-        "90 s)",
+        "The same two-run session's first run on each fresh host",
         ["h200-sizing-robot-100000-b.json", "h200-sizing-robot-100000.json"],
         _sizing("first"),
         "two fresh H200 hosts, 16 cores each",
@@ -446,16 +470,15 @@ ROWS = [
         "`python benchmarks/sizing.py seed --n 100000 --backend warp` at dc72616",
     ),
     Row(
-        "A sizing session on the seed, warm caches: benchmarks/slope_100k.yaml (100,000 x 10 s) at `--share 0.9`, "
-        "one candidate, two runs in the loop (issue 52: at most 45 s; the loop's two runs are two sweeps' chunks)",
+        "The seed's session with two runs in the loop, and MJX imported by the warp engine, warm caches",
         ["h200-sizing-seed-100000-b.json", "h200-sizing-seed-100000.json"],
         _sizing("warm"),
         "two fresh H200 hosts, 16 cores each",
         "`python benchmarks/sizing.py seed --n 100000 --backend warp --warm 2`",
     ),
     Row(
-        "A sizing session on 2 cores: the robot (friction swept), 400 LHS conditions, MuJoCo C (issue 52: within 4x "
-        "its servo sweep)",
+        "A sizing session on 2 cores: the robot (friction swept), 400 LHS conditions, MuJoCo C, two runs in the loop "
+        "(issue 52: within 4x its servo sweep)",
         ["cpu-2core-sizing-robot-400.json"],
         _sizing("warm"),
         TWO_CORES,

@@ -77,6 +77,7 @@ def main() -> None:
     ap.add_argument("--executor", choices=("local", "gpus", "ray"), help="as the size command's")
     ap.add_argument("--label", default=platform.node() or "machine")
     ap.add_argument("--json", help="default: benchmarks/results/LABEL-sizing-SESSION-N.json")
+    ap.add_argument("--note", default="", help="the code's and the machine's state, as the JSON's 'code'")
     args = ap.parse_args()
     tmp = Path(tempfile.mkdtemp(prefix="sizing-"))
     spec = spec_for(args.session, args.n, tmp)
@@ -102,7 +103,8 @@ def main() -> None:
             s = json.loads((out / "sizing.json").read_text())
             row["phases_s"] = {k: round(v, 2) for k, v in s["wall_s"].items()}
             row["chosen"], row["steer"] = s["chosen"], s["steer"]
-            row["loop"] = [{k: r[k] for k in ("motor", "coverage", "not_simulated", "residual_K")} for r in s["loop"]]
+            keys = ("motor", "coverage", "not_simulated", "residual_K", "hot_runs")  # hot_runs: the variants run hot
+            row["loop"] = [{k: r.get(k) for k in keys} for r in s["loop"]]
             row["candidates_run"] = len(s["loop"])
         runs.append(row)
         shutil.rmtree(out, ignore_errors=True)
@@ -144,6 +146,7 @@ def main() -> None:
                 "versions": versions,
                 "runs": runs,
                 "session_over_sweep": {r["kind"]: round(r["wall_s"] / sweep, 3) for r in runs if r["kind"] != "sweep"},
+                "code": args.note,
             },
             indent=1,
         )

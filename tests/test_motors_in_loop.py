@@ -282,3 +282,110 @@ def test_the_limiting_reason_counts_a_reason_at_any_speed_as_one_and_ties_go_to_
     assert _limiting(pd.Series(["B at 1", "A at 1", "A at 1", "B at 2"])) == "B (2 of 4)"
     assert _limiting(pd.Series(["x: peak at 1 m/s", "y: rms", "x: peak at 2 m/s", "y: rms"])) == "x: peak (2 of 4)"
     assert _limiting(pd.Series(["y: rms", "x: peak at 1", "x: peak at 2", "x: peak at 3"])) == "x: peak (3 of 4)"
+
+
+HOT_END_TOL = 1e-6  # K: a run's end from another start rise, in closed form; float64 rounding
+HOT_PEAK_TOL = 0.5  # K: the peak's interpolation between motor_stats.HOT_GRID's points, above the true peak
+SAME_RTOL = 1e-9  # the other columns of a run started hotter off the voltage line: the same run
+BUS_PEAK_RTOL = 0.05  # the bus's peak power in closed form: an upper bound (P + s x its gains); measured 1.2% above
+
+
+def _agv(tmp_path, hot_columns):
+    """sweeps/warehouse_agv.yaml's 250 kg vehicle with catalogue DC motors: 6 conditions, 5 s each."""
+    import dataclasses
+
+    from batchveh.sweeping.spec import load_spec
+
+    spec = load_spec(Path(__file__).resolve().parent.parent / "sweeps" / "warehouse_agv.yaml")
+    motors = dataclasses.replace(
+        spec.vehicle.motors, model="dcmotor", catalogue=str(CATALOGUE), drive=BIG, steer=BIG, hot_columns=hot_columns
+    )
+    return dataclasses.replace(spec, vehicle=dataclasses.replace(spec.vehicle, motors=motors))
+
+
+def test_a_run_from_another_start_rise_is_the_cold_run_moved_by_its_gains(tmp_path):
+    """The 250 kg AGV on six conditions, run from ambient with the start-rise gains, then from 30 K (drives) and
+    12 K (steering) above it without them. Where the start stays below a motor's voltage margin, the hot run is the
+    cold one: every column equal but the windings' and the energies, whose ends and nets move by s x their gains
+    exactly, and whose peaks lie within HOT_PEAK_TOL below the interpolation on the grid; a motor's hot run
+    reaches the voltage line exactly where its margin is below its start."""
+    import pandas as pd
+
+    from batchveh.analysis.motors import GROUP_RISES, hot_columns
+    from batchveh.stepping.motor_stats import named
+
+    cold_spec, plain = _agv(tmp_path, True), _agv(tmp_path, False)
+    table = {
+        "payload.mass": np.array([0.0, 120.0, 60.0, 120.0, 30.0, 90.0]),
+        "slope_deg": np.array([0.0, 5.0, 2.0, 0.0, 4.0, 5.0]),
+        "speed_kmh": np.array([2.0, 6.0, 4.0, 6.0, 0.5, 3.0]),
+        "friction": np.full(6, 0.8),
+    }
+    rises = {"motors.drive_start_rise": np.full(6, 30.0), "motors.steer_start_rise": np.full(6, 12.0)}
+    cold = pd.DataFrame(named(_run(cold_spec, {**table, **{k: np.zeros(6) for k in rises}})))
+    hot = pd.DataFrame(named(_run(plain, {**table, **rises})))
+    cat = load_catalogue(CATALOGUE)
+    consts = {k: cat[BIG].resolved(BIG) for k in rises}
+    got, redo = hot_columns(cold, rises, consts)
+    off_line = np.ones(6, bool)
+    for key, names in GROUP_RISES.items():
+        for m in names:
+            margin = cold[f"{m}_voltage_margin"].to_numpy()
+            reached = hot[f"{m}_at_voltage_share"].to_numpy() > 0
+            np.testing.assert_array_equal(reached, margin <= rises[key])  # the line where its margin says
+            off_line &= margin > rises[key]
+    assert off_line.any() and (~off_line).any()  # both kinds among the six
+    np.testing.assert_array_equal(redo[~off_line], True)
+    for col in hot.columns:
+        a, b = got[col][off_line], hot[col][off_line]
+        if "winding_temp_peak" in col:
+            assert np.all(a.to_numpy() >= b.to_numpy() - HOT_END_TOL) and np.all(a - b <= HOT_PEAK_TOL), col
+        elif col == "bus_power_peak":
+            assert np.all(a.to_numpy() >= b.to_numpy() - 1e-9), col
+        elif "winding_temp_end" in col:
+            np.testing.assert_allclose(a, b, rtol=0, atol=HOT_END_TOL, err_msg=col)
+        elif a.dtype.kind == "f":
+            np.testing.assert_allclose(a, b, rtol=SAME_RTOL, atol=1e-9, err_msg=col)
+        else:
+            assert a.tolist() == b.tolist(), col
+    rise = (
+        hot[[f"drive_{c}_winding_temp_end" for c in CORNERS]] - cold[[f"drive_{c}_winding_temp_end" for c in CORNERS]]
+    )
+    assert (rise.to_numpy()[off_line] > 20.0).all()  # 30 K hotter at the start, the windings shed a little of it
+
+
+def test_the_loop_takes_its_hot_run_in_closed_form_and_runs_only_what_it_cannot_say(tmp_path):
+    """in_loop's default (the hot run in closed form from the cold one, run where the closed form cannot say)
+    against the same with every variant run hot: every verdict equal, every column but the peaks (within
+    HOT_PEAK_TOL, never below) and the bus's peak power (never below) equal, and some of the variants not run."""
+    from unittest import mock
+
+    import pandas as pd
+
+    import batchveh.analysis.motors as m
+
+    values = {
+        "slope_deg": [0.0, 6.0, 3.0, 10.0, 0.0, 8.0],
+        "payload.mass": [0.0, 40.0, 20.0, 30.0, 10.0, 0.0],
+        "speed_kmh": [2.0, 2.0, 6.0, 4.0, 9.0, 5.0],
+    }
+    spec = _spec(tmp_path, total_time=6.0, values=values)
+    df = pd.DataFrame(values)
+    _, table, detail = in_loop(spec, df, CATALOGUE, [SMALL, BIG], steer=BIG, share=1.0, stop_at_first=False)
+    closed = m.hot_columns
+    with mock.patch.object(m, "hot_columns", lambda res, *a: (closed(res, *a)[0], np.ones(len(res), bool))):
+        _, every, every_detail = in_loop(spec, df, CATALOGUE, [SMALL, BIG], steer=BIG, share=1.0, stop_at_first=False)
+    assert (every["hot_runs"] == 6).all() and (table["hot_runs"] < 6).all() and (table["hot_runs"] > 0).any()
+    pd.testing.assert_frame_equal(table.drop(columns=["hot_runs", "residual_K"]),
+                                  every.drop(columns=["hot_runs", "residual_K"]))  # fmt: skip
+    for name in (SMALL, BIG):
+        a, b = detail[name], every_detail[name]
+        assert list(a.columns) == list(b.columns) and not any(c.endswith("_temp_gain") for c in a)
+        for col in a.columns:
+            if "winding_temp_peak" in col or col == "bus_power_peak":
+                over = HOT_PEAK_TOL if "winding" in col else BUS_PEAK_RTOL * b[col] + 1.0
+                assert np.all(a[col] >= b[col] - 1e-9) and np.all(a[col] - b[col] <= over), col
+            elif a[col].dtype.kind == "f":
+                np.testing.assert_allclose(a[col], b[col], rtol=SAME_RTOL, atol=1e-9, err_msg=col)
+            else:
+                assert a[col].tolist() == b[col].tolist(), col

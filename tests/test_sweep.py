@@ -5,6 +5,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -402,3 +403,18 @@ def test_warp_starts_quietly_without_the_cuda_driver():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert "CUDA driver" not in done.stderr and done.stderr.strip() == "after", done.stderr
+
+
+def test_a_mujoco_sweep_never_loads_mjx(tmp_path):
+    """MJX (and the copy of MuJoCo Warp it carries) is imported only where MJX runs: a sweep on MuJoCo C, and
+    so each run of the size command's loop, starts without it (3-7 s of a process's start on a GPU machine)."""
+    code = (
+        "import sys; from batchveh.sweep import run_sweep; from batchveh.sweeping.spec import load_spec; "
+        f"run_sweep(load_spec('sweeps/slope.yaml'), out={str(tmp_path / 'r')!r}, backend='mujoco', limit=2, "
+        "progress=False); import batchveh.engines.warp, batchveh.size; "
+        "print(sorted(m for m in sys.modules if m.startswith('mujoco.mjx')))"
+    )
+    root = Path(__file__).resolve().parent.parent
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=root)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().splitlines()[-1] == "[]", done.stdout[-2000:]

@@ -51,6 +51,7 @@ from batchveh.stepping.motor_stats import SHORT_SHARE  # a window's mean speed t
 
 WHEELS = ("drive_lf", "drive_rf", "drive_lr", "drive_rr")
 GROUPS = {"drive": WHEELS, "steer": ("steer_lf", "steer_rf", "steer_lr", "steer_rr")}
+GROUP_RISES = {"motors.drive_start_rise": WHEELS, "motors.steer_start_rise": GROUPS["steer"]}  # each group's start
 
 
 # --- DC motors from datasheets (batchveh.model.motors): the fast screen, with the reason of each failure ---
@@ -551,6 +552,76 @@ def _hot_start(res: pd.DataFrame, names: tuple[str, ...], c: dict, start: np.nda
     return np.maximum(out, 0.0)
 
 
+HOT_MARGIN = 0.99  # a run in closed form only where its start rise stays below this share of its voltage margin
+
+
+def hot_columns(res: pd.DataFrame, start: dict, consts: dict, battery: Battery | None = None):
+    """A run's columns had it started at the rises `start` ({'motors.drive_start_rise': (n,), 'motors.steer_start_rise':
+    (n,)} K, each group's windings), in closed form from `res`, a run from ambient with `motors.hot_columns`
+    (motor_stats.HOT_COLUMNS's columns), and which variants it cannot answer for. Returns (the columns, redo (n,) bool).
+
+    Off the voltage line the drive carries the current it asks whatever the winding's resistance, so the run
+    started hotter is the same run: its currents, torques and speeds are these, and the winding, linear in its
+    temperature at a given current, runs at T + s g (`<motor>_temp_gain`, g at the last step). So: the end
+    exactly; the peak, a convex function of s kept at 0 and motor_stats.HOT_GRID, interpolated (an upper bound;
+    the true one is at least max(f(a) + g (s - a), f(b) - (b - s)) between the points a, b around s); the net
+    energy exactly (the power rises by alpha R i^2 g s); the bus's peak power below P + s (its gains) and at least
+    P. A variant is redone (`redo`) where a step would reach the voltage line (s at HOT_MARGIN of
+    `<motor>_voltage_margin` or above: its current would depend on s), where its thermal verdict lies inside the
+    peak's bounds, and where the battery's power does. `consts`: the groups' resolved catalogue constants."""
+    from batchveh.stepping.motor_stats import HOT_GRID
+
+    out = res.copy()
+    n = len(res)
+    rows = np.arange(n)
+    redo = np.zeros(n, bool)
+    grid = np.array((0.0, *HOT_GRID))
+    last = len(grid) - 1
+    net = res["bus_energy_wh"].to_numpy(float).copy()
+    bus_hi = res["bus_power_peak"].to_numpy(float).copy()
+    for (key, names), side in zip(GROUP_RISES.items(), ("drive", "steer"), strict=True):
+        s = np.asarray(start[key], float)
+        t_max = consts[key]["T_max"]
+        bus_hi += s * res[f"bus_power_gain_{side}"].to_numpy(float)
+        for m in names:
+            g = res[f"{m}_temp_gain"].to_numpy(float)
+            out[f"{m}_winding_temp_end"] = res[f"{m}_winding_temp_end"].to_numpy(float) + s * g
+            f = np.stack(
+                [res[f"{m}_winding_temp_peak{x}"].to_numpy(float) for x in ("", *(f"_{v:g}K" for v in HOT_GRID))], 1
+            )
+            j = np.clip(np.searchsorted(grid, s, side="right") - 1, 0, last)
+            k = np.minimum(j + 1, last)
+            a, b, fa, fb = grid[j], grid[k], f[rows, j], f[rows, k]
+            beyond = j == last
+            width = np.where(beyond, 1.0, b - a)
+            hi = np.where(beyond, fa + (s - a), fa + (fb - fa) * (s - a) / width)
+            lo = np.where(beyond, fa + g * (s - a), np.maximum(fa + g * (s - a), fb - (b - s)))
+            out[f"{m}_winding_temp_peak"] = hi
+            heated = s > 0
+            redo |= heated & (lo <= t_max) & (t_max < hi)  # its thermal verdict is not in the bounds
+            redo |= heated & (s >= HOT_MARGIN * res[f"{m}_voltage_margin"].to_numpy(float))  # at the voltage line
+            hd, hr = (res[f"{m}_heat_gain_{x}"].to_numpy(float) for x in ("drawn", "regen"))
+            drawn, regen = (res[f"{m}_energy_{x}"].to_numpy(float) for x in ("drawn", "regen"))
+            # the net exact; a regenerating step that turns to drawing moves as much from one to the other
+            out[f"{m}_energy_regen"] = np.maximum(regen - s * hr, 0.0)
+            out[f"{m}_energy_drawn"] = drawn - regen + s * (hd + hr) + out[f"{m}_energy_regen"].to_numpy()
+            net += s * (hd + hr) / 3600.0
+    out["bus_energy_wh"] = net
+    out["bus_power_peak"] = bus_hi
+    if battery is not None:  # the battery's power verdict inside [P, P + its gains]
+        p0 = res["bus_power_peak"].to_numpy(float)
+        redo |= (p0 <= battery.max_power) & (battery.max_power < bus_hi)
+    return out, redo
+
+
+def _without_gains(res: pd.DataFrame) -> pd.DataFrame:
+    """A run's columns less motor_stats' start-rise gains (MotorStatsConfig.hot)."""
+    from batchveh.stepping.motor_stats import HOT_COLUMNS
+
+    gains = tuple(f"_{k}" for k in HOT_COLUMNS)
+    return res.drop(columns=[c for c in res if c.endswith(gains) or c.startswith("bus_power_gain_")])
+
+
 Runner = Callable[[Any, dict], pd.DataFrame]
 """How the loop's runs are run: (the run's SweepSpec, with the dcmotors; its table, name -> (n,) values: the
 spec's parameters, `motors.drive` (a catalogue index) where the batch holds several drives, and the two start
@@ -594,17 +665,22 @@ def batches(cat: dict[str, Any], names: list[str]) -> list[list[str]]:
     return out
 
 
-def _hot_runs(spec, df, catalogue, cat, batch, steer, runs, duty, run) -> list[tuple[pd.DataFrame, dict, float]]:
+def _hot_runs(spec, df, catalogue, cat, batch, steer, runs, duty, run, battery=None) -> list[tuple]:
     """The drives `batch` (catalogue names) run in the loop on every variant of `df` in one batch: the
     (candidate, variant) pairs are its rows, each with its drive's constants, gearhead, rotor and gains
     (`motors.drive` per row). `runs` runs: from ambient, then from the closed-form hot start (`_hot_start`) of
-    the run before. Per candidate: (its last run's rows, the start rises it ran from, |end - start| left (K))."""
+    the run before. With two (the default), the second is taken in closed form from the first (`hot_columns`),
+    and run only for the variants it cannot answer for; a mission's (its spans' electric columns have no closed
+    form here) runs whole. Per candidate: (its last run's rows, the start rises it ran from, |end - start| left (K),
+    the variants its hot run ran for (-1: all))."""
     import dataclasses
 
     n, k = len(df), len(batch)
+    closed = runs == 2 and spec.stats_config().mission is None
     motors = dataclasses.replace(
-        spec.vehicle.motors, model="dcmotor", catalogue=str(catalogue), drive=batch[0], steer=steer
-    )
+        spec.vehicle.motors, model="dcmotor", catalogue=str(catalogue), drive=batch[0], steer=steer,
+        hot_columns=closed,
+    )  # fmt: skip
     run_spec = dataclasses.replace(spec, vehicle=dataclasses.replace(spec.vehicle, motors=motors))
     table = {p: np.tile(df[p].to_numpy(float), k) for p in spec.params}
     if k > 1:  # the candidates as one sweep over motors.drive
@@ -613,28 +689,41 @@ def _hot_runs(spec, df, catalogue, cat, batch, steer, runs, duty, run) -> list[t
     duration = run_spec.stats_config().n_steps * float(spec.scenario.time_step)
     rest = duration * (1.0 / duty - 1.0)
     heated = duration - float(spec.scenario.time_step)  # winding_temp_end holds every step's heat but the last
-    keys = ("motors.drive_start_rise", "motors.steer_start_rise")
-    groups = dict(zip(keys, (WHEELS, GROUPS["steer"]), strict=True))
+    keys = tuple(GROUP_RISES)
     consts = [dict(zip(keys, (cat[b].resolved(b), cat[steer].resolved(steer)), strict=True)) for b in batch]
     start = [{key: np.zeros(n) for key in keys} for _ in batch]
+    ran, parts = [-1] * k, []
     for r in range(runs):
-        whole = run(run_spec, {**table, **{key: np.concatenate([s[key] for s in start]) for key in keys}})
+        rises = {key: np.concatenate([s[key] for s in start]) for key in keys}
+        if closed and r == 1:  # the hot run from the cold one, run only where the closed form cannot say
+            hot = [hot_columns(res, s, c, battery) for res, s, c in zip(parts, start, consts, strict=True)]
+            whole = pd.concat([h[0] for h in hot], ignore_index=True)
+            redo = np.concatenate([h[1] for h in hot])
+            ran = [int(h[1].sum()) for h in hot]
+            if redo.any():
+                at = np.flatnonzero(redo)
+                again = run(run_spec, {key: v[at] for key, v in {**table, **rises}.items()})
+                again = again[list(whole.columns)].set_axis(at)
+                whole = pd.concat([whole.drop(index=at), again]).sort_index()
+        else:
+            whole = run(run_spec, {**table, **rises})
         parts = [whole.iloc[j * n : (j + 1) * n].reset_index(drop=True) for j in range(k)]
         residual = []
         for res, s, c in zip(parts, start, consts, strict=True):
             # the next run starts from this one's end, cooled over the rest between runs
             end = {
-                key: (res[[f"{m}_winding_temp_end" for m in groups[key]]].max(axis=1).to_numpy() - c[key]["T_amb"])
+                key: (res[[f"{m}_winding_temp_end" for m in GROUP_RISES[key]]].max(axis=1).to_numpy() - c[key]["T_amb"])
                 * (np.exp(-rest / c[key]["t_T"]) if c[key]["t_T"] > 0 else 0.0)
                 for key in keys
             }
             residual.append(max(float(np.max(np.abs(end[key] - s[key]))) for key in keys))
         if r < runs - 1:  # the next start: the back-to-back fixed point, in closed form from this run
             start = [
-                {key: _hot_start(res, groups[key], c[key], s[key], heated, rest) for key in keys}
+                {key: _hot_start(res, GROUP_RISES[key], c[key], s[key], heated, rest) for key in keys}
                 for res, s, c in zip(parts, start, consts, strict=True)
             ]
-    return list(zip(parts, start, residual, strict=True))
+    parts = [_without_gains(res) for res in parts] if closed else parts
+    return list(zip(parts, start, residual, ran, strict=True))
 
 
 def in_loop(
@@ -706,8 +795,8 @@ def in_loop(
     # stop_at_first: one candidate at a time, none run past the first that covers; else as few batches as fit
     groups = [[name] for name in candidates] if stop_at_first else batches(cat, list(candidates))
     for batch in groups:
-        for name, (res, start, residual) in zip(batch, _hot_runs(spec, servo, catalogue, cat, batch, steer, runs,
-                                                                 duty, run), strict=True):  # fmt: skip
+        hot = _hot_runs(spec, servo, catalogue, cat, batch, steer, runs, duty, run, battery)
+        for name, (res, start, residual, ran) in zip(batch, hot, strict=True):
             motor = cat[name]
             c = motor.resolved(name)
             # a variant whose run failed a physics check (or diverged) says nothing of the motor: apart, never a
@@ -754,6 +843,7 @@ def in_loop(
                     "start_rise_median": float(np.median(start["motors.drive_start_rise"])),
                     "residual_K": residual,
                     "runs": runs,
+                    "hot_runs": ran,  # the variants its hot run ran for (-1: all; else the closed form's rest)
                 }
             )
             detail[name] = pd.concat(

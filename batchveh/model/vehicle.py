@@ -135,6 +135,9 @@ class Motors:
     # back-to-back runs (batchveh.analysis.motors.in_loop finds it); read as the thermal state's start value
     drive_start_rise: float = field(0.0, unit="K", ge=0, doc="dcmotor drives' winding rise at the start")
     steer_start_rise: float = field(0.0, unit="K", ge=0, doc="dcmotor steering windings' rise at the start")
+    # model dcmotor: also write how each run's columns move with the start rises (motor_stats.HOT_COLUMNS), from
+    # which the size command's loop takes the hot steady state's columns out of one run (analysis.motors.hot_columns)
+    hot_columns: bool = False
     # 'servo': the ideal PD servo above (the torque demand); 'dcmotor': each motor is MuJoCo's dcmotor, a
     # catalogue motor with its gearhead (batchveh/model/motors.py) driven by batchveh's drive (model/drive.py:
     # speed and angle loops, current limit, bus voltage, winding); its rotor inertia replaces `armature`

@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from batchveh.model.motors import REFERENCE_TEMP
+from batchveh.model.motors import COPPER_TEMPCOEF, REFERENCE_TEMP
 from batchveh.model.vehicle import MOTORS
 
 LIMITED_SHARE = 0.01  # a drive motor at its voltage line or current limit for more than 1% of the run
@@ -65,6 +65,30 @@ _PER_MOTOR = {
     "at_voltage_share": ("1", "share of the run's steps at the voltage line (the bus voltage)"),
     "at_current_share": ("1", "share of the run's steps at the current limit"),
 }
+HOT_GRID = (5.0, 10.0, 20.0, 35.0, 55.0, 80.0, 110.0)  # K: the start rises each winding's peak is also kept at
+# MotorStatsConfig.hot: how the run's columns move with its windings' start rise (analysis.motors.hot_columns)
+HOT_COLUMNS = {
+    "temp_gain": (
+        "1",
+        "d winding_temp_end / d start rise: the product over the run of each step's 1 + dt (alpha R i^2 "
+        "- 1 / R_T) / C (exact where the current does not depend on the temperature)",
+    ),
+    "voltage_margin": (
+        "K",
+        "the least start rise above this run's at which a step would reach the voltage line "
+        "(0: a step did): below it the current, and so the run, does not depend on the start rise",
+    ),
+    "heat_gain_drawn": (
+        "J/K",
+        "d energy_drawn / d start rise over the steps that drew: the integral of alpha R i^2 "
+        "times the step's temperature gain",
+    ),
+    "heat_gain_regen": ("J/K", "the same over the steps that regenerated (their regen falls by it)"),
+    **{
+        f"winding_temp_peak_{g:g}K": ("deg C", f"peak winding temperature over the run had it started {g:g} K hotter")
+        for g in HOT_GRID
+    },
+}
 _DRIVE = {
     "speed_shortfall": ("1", "steady mean wheel speed below the imposed speed, relative to it (negative: faster)"),
 }
@@ -82,6 +106,11 @@ _VEHICLE = {
     "motor_flip_share": ("1", "largest share of steps whose torque flipped sign by half the bound or more"),
     "motor_rms_ratio": ("1", "largest RMS of the applied torque over the RMS the carried current gives"),
     "motor_check": ("", "the first physics check failed: '', 'torque above the current limit', 'chatter', 'rms'"),
+    "bus_power_gain_drive": (
+        "W/K",
+        "the most the bus power of a step rises per K of the drives' start rise (MotorStatsConfig.hot)",
+    ),
+    "bus_power_gain_steer": ("W/K", "the same for the steering's start rise"),
 }
 
 
@@ -98,6 +127,7 @@ class MotorStatsConfig:
     R_T: tuple[float, ...] = (0.0,) * 8  # K/W, the winding's one-node thermal resistance (0: no thermal model)
     C: tuple[float, ...] = (0.0,) * 8  # J/K, its capacitance
     N: tuple[float, ...] = (1.0,) * 8  # the gear ratio
+    hot: bool = False  # also the start-rise gains (HOT_COLUMNS): a run's columns from any other start rise
 
     def constants(self) -> dict[str, np.ndarray]:
         """CONSTANTS, (8,) each."""
@@ -121,6 +151,7 @@ class MotorStatsConfig:
             R_T=tuple(c["R_T"] for c in each),
             C=tuple(c["C"] if c["R_T"] > 0 else 0.0 for c in each),
             N=tuple(c["N"] for c in each),
+            hot=bool(vehicle.motors.hot_columns),
         )
 
 
@@ -146,7 +177,7 @@ def sample(force, velocity, temp, volt, cfg: MotorStatsConfig, xp=np, consts=Non
     c = {k: xp.asarray(v, force.dtype)[..., None, :] for k, v in c.items()}  # over the steps' axis
     K, eta, V, fmax = c["K"], c["eta"], c["V"], c["force_max"]
     current = force / K / eta
-    return {
+    out = {
         "current": current,
         "temp": temp,
         "power": volt * current,
@@ -155,15 +186,38 @@ def sample(force, velocity, temp, volt, cfg: MotorStatsConfig, xp=np, consts=Non
         "joint": force * c["N"],  # the torque the current gives at the joint
         "bound": xp.where(fmax > 0, fmax * c["N"], xp.inf),  # the most the current limit allows there
     }
+    if cfg.hot:  # the start-rise gains (update): per K of winding temperature, a step's heat and its voltage
+        thermal = c["C"] > 0
+        # d heat / dT = d power / dT: the real current i in the real R = R' eta (drive.step's heat)
+        q = xp.where(thermal, COPPER_TEMPCOEF * c["R"] * eta * current * current, 0.0)
+        cool = xp.where(thermal & (c["R_T"] > 0), 1.0 / xp.where(c["R_T"] > 0, c["R_T"], 1.0), 0.0)
+        out["gain_rate"] = xp.where(thermal, (q - cool) / xp.where(thermal, c["C"], 1.0), 0.0)  # 1/s
+        out["q"] = q
+        # a step's voltage moves by alpha R' eta |i| per K, towards the line of its current's sign
+        slope = COPPER_TEMPCOEF * c["R"] * eta * xp.abs(current)
+        room = xp.where(current >= 0, V - volt, V + volt)
+        safe = thermal & (slope > 0)
+        out["margin"] = xp.where(out["at_v"] & thermal, 0.0, xp.where(safe, room / xp.where(safe, slope, 1.0), xp.inf))
+    return out
 
 
-def init(batch: tuple[int, ...], xp=np, dtype=None) -> dict[str, Any]:
+def init(batch: tuple[int, ...], xp=np, dtype=None, hot: bool = False) -> dict[str, Any]:
     dtype = dtype or xp.float64
 
     def z(*shape, fill=0.0):
         return xp.full((*batch, *shape), fill, dtype=dtype)
 
+    gains = {
+        "gain": z(8, fill=1.0),  # d T / d start rise of the step to come
+        "gain_end": z(8, fill=1.0),  # ... of the last step's temperature (t_end's)
+        "peak_at": z(len(HOT_GRID), 8, fill=-np.inf),
+        "margin": z(8, fill=np.inf),
+        "h_drawn": z(8),
+        "h_regen": z(8),
+        "bus_gain": z(2),  # drives, steering
+    }
     return {
+        **(gains if hot else {}),
         "n_run": z(),
         "i_sumsq": z(8),
         "i_sq_dt": z(8),  # over every step, the settle too (the winding heats through it)
@@ -223,7 +277,38 @@ def update(c: dict[str, Any], e: dict[str, Any], tau, w, wr, dt: float, xp=np) -
     out["tau_sumsq"] = c["tau_sumsq"] + (wrk * tau * tau).sum(-2)
     out["joint_sumsq"] = c["joint_sumsq"] + (wrk * e["joint"] * e["joint"]).sum(-2)
     out["bound_sumsq"] = c["bound_sumsq"] + wr.sum() * xp.where(finite, scale * scale, 0.0)
+    if "gain" in c:
+        out.update(_gains(c, e, run, wrk, dt, xp))
     return out
+
+
+def _gains(c: dict[str, Any], e: dict[str, Any], run, wrk, dt: float, xp=np) -> dict[str, Any]:
+    """The start-rise gains over a block (MotorStatsConfig.hot). The drive's winding step, T' = T + dt (i^2 R (1 +
+    alpha (T - 25)) - (T - T_a) / R_T) / C, is linear in T for a given current, so a run started s hotter runs
+    at T + s g with g the product of the steps' 1 + dt (alpha R i^2 - 1 / R_T) / C so far, wherever its current is
+    the same: off the voltage line, where the drive asks the current it carries whatever the winding's
+    resistance. The steps' voltages move by alpha R' eta |i| s g (`margin`: the s at which one would reach the
+    line); their power by q s g, q = alpha R i^2."""
+    step = 1.0 + dt * e["gain_rate"]
+    cum = xp.cumprod(step, axis=-2)
+    before = xp.concatenate([xp.ones_like(cum[..., :1, :]), cum[..., :-1, :]], axis=-2)
+    g = c["gain"][..., None, :] * before  # each step's temperature gain (its T's)
+    grid = xp.asarray(HOT_GRID, g.dtype)[:, None, None]
+    shifted = e["temp"][..., None, :, :] + grid * g[..., None, :, :]  # (..., G, B, 8)
+    peak = xp.where(run[:, None], shifted, -np.inf).max(-2)
+    qg = e["q"] * g
+    drew = e["power"] > 0
+    bus = xp.stack([qg[..., :4].sum(-1), qg[..., 4:].sum(-1)], axis=-1)  # (..., B, 2)
+    margin = xp.where(g > 0, e["margin"] / xp.where(g > 0, g, 1.0), xp.inf)
+    return {
+        "gain": c["gain"] * cum[..., -1, :],
+        "gain_end": g[..., -1, :],
+        "peak_at": xp.maximum(c["peak_at"], peak),
+        "margin": xp.minimum(c["margin"], margin.min(-2)),
+        "h_drawn": c["h_drawn"] + (wrk * xp.where(drew, qg, 0.0)).sum(-2) * dt,
+        "h_regen": c["h_regen"] + (wrk * xp.where(drew, 0.0, qg)).sum(-2) * dt,
+        "bus_gain": xp.maximum(c["bus_gain"], xp.where(run[:, None], bus, 0.0).max(-2)),
+    }
 
 
 def finalize(c: dict[str, Any], n_window, speed_err, speed_ref, xp=np) -> dict[str, Any]:
@@ -243,7 +328,15 @@ def finalize(c: dict[str, Any], n_window, speed_err, speed_ref, xp=np) -> dict[s
         "at_voltage_share": c["n_v"] / n_run,
         "at_current_share": c["n_i"] / n_run,
     }
+    if "gain" in c:
+        per["temp_gain"] = c["gain_end"]
+        per["voltage_margin"] = c["margin"]
+        per["heat_gain_drawn"] = c["h_drawn"]
+        per["heat_gain_regen"] = c["h_regen"]
+        per.update({f"winding_temp_peak_{g:g}K": c["peak_at"][..., k, :] for k, g in enumerate(HOT_GRID)})
     cols = {f"{m}_{k}": v[..., j] for k, v in per.items() for j, m in enumerate(MOTORS)}
+    if "gain" in c:
+        cols["bus_power_gain_drive"], cols["bus_power_gain_steer"] = c["bus_gain"][..., 0], c["bus_gain"][..., 1]
     cols["bus_power_peak"] = c["bus_peak"]
     cols["bus_energy_wh"] = c["bus_energy"] / 3600.0
     limited = xp.maximum(per["at_voltage_share"], per["at_current_share"])[..., :4]
@@ -290,7 +383,7 @@ def column_doc(name: str) -> tuple[str, str] | None:
             unit, doc = _DRIVE[name[len(m) + 1 :]]
             return unit, f"{m}: {doc}"
     for m in MOTORS:
-        if name.startswith(m + "_") and name[len(m) + 1 :] in _PER_MOTOR:
-            unit, doc = _PER_MOTOR[name[len(m) + 1 :]]
+        if name.startswith(m + "_") and name[len(m) + 1 :] in {**_PER_MOTOR, **HOT_COLUMNS}:
+            unit, doc = {**_PER_MOTOR, **HOT_COLUMNS}[name[len(m) + 1 :]]
             return unit, f"{m}: {doc}"
     return None

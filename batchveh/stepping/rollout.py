@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Iterator, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import jax
 import jax.numpy as jnp
@@ -28,7 +28,8 @@ from batchveh.model.vehicle import Layout, layout
 from batchveh.stepping import motor_stats, stats
 from batchveh.stepping.batch import import_mjx, servo_damping
 
-mjx = import_mjx()
+if TYPE_CHECKING:  # imported where MJX runs (MjxPhysics): MuJoCo C and the warp engine never load it (its copy of
+    from mujoco import mjx  # MuJoCo Warp and its JAX modules are 3-7 s of a process's start on a GPU machine)
 
 
 def float_precision(name: str):
@@ -68,12 +69,13 @@ class MjxPhysics:
 
     def start(self) -> mjx.Data:
         """The initial data at the variant's own qpos0 (a swept chassis position moves it), forwarded."""
+        mjx = import_mjx()
         m, d = self.model, self.data
         d0 = mjx.make_data(m) if d is None else d.replace(qpos=m.qpos0.astype(d.qpos.dtype))
         return mjx.forward(m, d0)
 
     def step(self, d: mjx.Data) -> mjx.Data:
-        return mjx.step(self.model, d)
+        return import_mjx().step(self.model, d)
 
 
 def _scan(phys, params: Mapping[str, Any], scenario: Scenario, lay: Layout, body_out, motors=None):

@@ -180,7 +180,7 @@ def init(cfg: StatsConfig, batch: tuple[int, ...], xp=np, dtype=None) -> dict[st
     if cfg.mission is not None:
         mission["mission"] = mission_stats.init(cfg.mission, batch, xp, dtype, motors=cfg.motors is not None)
     if cfg.motors is not None:
-        mission["motors"] = motor_stats.init(batch, xp, dtype)
+        mission["motors"] = motor_stats.init(batch, xp, dtype, hot=cfg.motors.hot)
     return {
         **mission,
         "n": z(),
