@@ -44,10 +44,12 @@ HOT_RUNS = 2  # in_loop's runs per candidate (`iterations` 1): from ambient, the
 
 
 def loop_runs(spec: Any) -> int:
-    """The runs of every condition a candidate takes in the loop: one on a straight line (its hot run in closed
-    form from it, `analysis.motors.hot_columns`, run again only for the conditions that cannot say), HOT_RUNS on
-    a mission (its spans' electric columns have no closed form)."""
-    return HOT_RUNS if spec.stats_config().mission is not None else 1
+    """The runs of every condition a candidate takes in the loop: one where its hot run comes in closed form from
+    it (`analysis.motors.closed_form`: a straight line; run again only for the conditions it cannot say), else
+    HOT_RUNS."""
+    from batchveh.analysis.motors import closed_form
+
+    return 1 if closed_form(spec) else HOT_RUNS
 
 
 def servo_spec(spec: Any, out: Path) -> Any:

@@ -356,13 +356,9 @@ def test_a_run_from_another_start_rise_is_the_cold_run_moved_by_its_gains(tmp_pa
 
 def test_the_loop_takes_its_hot_run_in_closed_form_and_runs_only_what_it_cannot_say(tmp_path):
     """in_loop's default (the hot run in closed form from the cold one, run where the closed form cannot say)
-    against the same with every variant run hot: every verdict equal, every column but the peaks (within
-    HOT_PEAK_TOL, never below) and the bus's peak power (never below) equal, and some of the variants not run."""
-    from unittest import mock
-
+    against the two runs (`closed=False`: every variant run hot): every verdict equal, every column but the peaks
+    (within HOT_PEAK_TOL, never below) and the bus's peak power (never below) equal, and some variants not run."""
     import pandas as pd
-
-    import batchveh.analysis.motors as m
 
     values = {
         "slope_deg": [0.0, 6.0, 3.0, 10.0, 0.0, 8.0],
@@ -372,10 +368,10 @@ def test_the_loop_takes_its_hot_run_in_closed_form_and_runs_only_what_it_cannot_
     spec = _spec(tmp_path, total_time=6.0, values=values)
     df = pd.DataFrame(values)
     _, table, detail = in_loop(spec, df, CATALOGUE, [SMALL, BIG], steer=BIG, share=1.0, stop_at_first=False)
-    closed = m.hot_columns
-    with mock.patch.object(m, "hot_columns", lambda res, *a: (closed(res, *a)[0], np.ones(len(res), bool))):
-        _, every, every_detail = in_loop(spec, df, CATALOGUE, [SMALL, BIG], steer=BIG, share=1.0, stop_at_first=False)
-    assert (every["hot_runs"] == 6).all() and (table["hot_runs"] < 6).all() and (table["hot_runs"] > 0).any()
+    _, every, every_detail = in_loop(
+        spec, df, CATALOGUE, [SMALL, BIG], steer=BIG, share=1.0, stop_at_first=False, closed=False
+    )
+    assert (every["hot_runs"] == -1).all() and (table["hot_runs"] < 6).all() and (table["hot_runs"] > 0).any()
     pd.testing.assert_frame_equal(table.drop(columns=["hot_runs", "residual_K"]),
                                   every.drop(columns=["hot_runs", "residual_K"]))  # fmt: skip
     for name in (SMALL, BIG):

@@ -18,6 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
 CATALOGUE = ROOT / "notebooks" / "motors.yaml"
 DRIVE = "maxon-353297-48V_NPT025-i28"
 
+
 def _write(tmp_path, name, raw):
     path = tmp_path / f"{name}.yaml"
     path.write_text(yaml.safe_dump({"name": name, **raw, "output": str(tmp_path / name)}, sort_keys=False))
@@ -50,6 +51,33 @@ def test_a_sweep_writes_the_pinned_types(tmp_path, backend, precision):
     spec = _write(tmp_path, backend, raw)
     run_sweep(spec, out=tmp_path / backend, backend=backend, progress=False)
     assert schema_misses(tmp_path / backend) == {}
+
+
+def test_the_start_rise_gains_are_written_as_pinned(tmp_path):
+    """A dcmotor straight line with `motors.hot_columns` (the size command's loop runs): its gains and its peaks at
+    the hotter starts are written, float64 like every statistic."""
+    raw = {
+        "scenario": "straight_line",
+        "fixed": {"total_time": 1.0, "ramp_time": 0.5},
+        "vehicle": {
+            "motors": {
+                "model": "dcmotor",
+                "catalogue": str(CATALOGUE),
+                "drive": DRIVE,
+                "steer": DRIVE,
+                "hot_columns": True,
+            },
+        },  # fmt: skip
+        "sweep": {"method": "zip", "params": {"payload.mass": [0.0, 20.0]}},
+        "backend": "mujoco",
+    }
+    spec = _write(tmp_path, "hot", raw)
+    run_sweep(spec, out=tmp_path / "hot", backend="mujoco", progress=False)
+    assert schema_misses(tmp_path / "hot") == {}
+    names = set(pq.read_schema(sorted((tmp_path / "hot").glob("part-*.parquet"))[0]).names)
+    wanted = {"drive_lf_temp_gain", "steer_rr_voltage_margin", "drive_rf_winding_temp_peak_110K"}
+    wanted.add("bus_power_gain_steer")
+    assert wanted <= names, sorted(wanted - names)
 
 
 def test_a_dcmotor_mission_writes_the_pinned_types(tmp_path):

@@ -555,6 +555,12 @@ def _hot_start(res: pd.DataFrame, names: tuple[str, ...], c: dict, start: np.nda
 HOT_MARGIN = 0.99  # a run in closed form only where its start rise stays below this share of its voltage margin
 
 
+def closed_form(spec: Any) -> bool:
+    """Whether the loop takes a candidate's hot run in closed form from its cold one (`hot_columns`): on a straight
+    line; a mission's spans' electric columns (each segment's peak and energies) have none here."""
+    return spec.stats_config().mission is None
+
+
 def hot_columns(res: pd.DataFrame, start: dict, consts: dict, battery: Battery | None = None):
     """A run's columns had it started at the rises `start` ({'motors.drive_start_rise': (n,), 'motors.steer_start_rise':
     (n,)} K, each group's windings), in closed form from `res`, a run from ambient with `motors.hot_columns`
@@ -665,7 +671,7 @@ def batches(cat: dict[str, Any], names: list[str]) -> list[list[str]]:
     return out
 
 
-def _hot_runs(spec, df, catalogue, cat, batch, steer, runs, duty, run, battery=None) -> list[tuple]:
+def _hot_runs(spec, df, catalogue, cat, batch, steer, runs, duty, run, battery=None, closed=True) -> list[tuple]:
     """The drives `batch` (catalogue names) run in the loop on every variant of `df` in one batch: the
     (candidate, variant) pairs are its rows, each with its drive's constants, gearhead, rotor and gains
     (`motors.drive` per row). `runs` runs: from ambient, then from the closed-form hot start (`_hot_start`) of
@@ -676,7 +682,7 @@ def _hot_runs(spec, df, catalogue, cat, batch, steer, runs, duty, run, battery=N
     import dataclasses
 
     n, k = len(df), len(batch)
-    closed = runs == 2 and spec.stats_config().mission is None
+    closed = closed and runs == 2 and closed_form(spec)
     motors = dataclasses.replace(
         spec.vehicle.motors, model="dcmotor", catalogue=str(catalogue), drive=batch[0], steer=steer,
         hot_columns=closed,
@@ -741,6 +747,7 @@ def in_loop(
     stop_at_first: bool = True,
     duty: float | None = None,
     run: Runner | None = None,
+    closed: bool = True,
 ) -> tuple[str | None, pd.DataFrame, dict[str, pd.DataFrame]]:
     """The second pass: `candidates` run as the drive motors in the loop (MuJoCo's dcmotor), on the variants
     of the servo sweep `df`, all in one batch: each (candidate, variant) pair is a variant of one sweep, its
@@ -767,7 +774,9 @@ def in_loop(
     With `hot`, a candidate runs first from ambient, then `iterations` times from the start rise that makes its
     run end where it started (`_hot_start`: the one-node winding's back-to-back fixed point in closed form from
     the previous run, each drive and steering group at its hottest winding): the thermal state of back-to-back
-    runs, in two runs. The row gives the median start
+    runs, in two runs; with `closed` (the default) on a straight line, the second in closed form from the first
+    (`hot_columns`), run only for the variants it cannot answer for (the row's `hot_runs`; -1: every variant ran
+    hot). The row gives the median start
     rise and the largest |end - start| left (K). `stop_at_first`: the candidates one at a time, none run after the
     first that covers (else all in one batch, each reported). `run`: how the runs are run (a Runner; default
     `engine_runner(backend)`: `backend` None for 'mujoco', or 'warp'; MJX's JAX implementation has no dcmotor)."""
@@ -795,7 +804,7 @@ def in_loop(
     # stop_at_first: one candidate at a time, none run past the first that covers; else as few batches as fit
     groups = [[name] for name in candidates] if stop_at_first else batches(cat, list(candidates))
     for batch in groups:
-        hot = _hot_runs(spec, servo, catalogue, cat, batch, steer, runs, duty, run, battery)
+        hot = _hot_runs(spec, servo, catalogue, cat, batch, steer, runs, duty, run, battery, closed)
         for name, (res, start, residual, ran) in zip(batch, hot, strict=True):
             motor = cat[name]
             c = motor.resolved(name)

@@ -89,6 +89,7 @@ HOT_COLUMNS = {
         for g in HOT_GRID
     },
 }
+_EACH = {**_PER_MOTOR, **HOT_COLUMNS}  # every per-motor column
 _DRIVE = {
     "speed_shortfall": ("1", "steady mean wheel speed below the imposed speed, relative to it (negative: faster)"),
 }
@@ -383,7 +384,7 @@ def column_doc(name: str) -> tuple[str, str] | None:
             unit, doc = _DRIVE[name[len(m) + 1 :]]
             return unit, f"{m}: {doc}"
     for m in MOTORS:
-        if name.startswith(m + "_") and name[len(m) + 1 :] in {**_PER_MOTOR, **HOT_COLUMNS}:
-            unit, doc = {**_PER_MOTOR, **HOT_COLUMNS}[name[len(m) + 1 :]]
+        if name.startswith(m + "_") and name[len(m) + 1 :] in _EACH:
+            unit, doc = _EACH[name[len(m) + 1 :]]
             return unit, f"{m}: {doc}"
     return None
