@@ -515,11 +515,15 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
 
 def verdict_line(s: Any, paths: dict[str, Path]) -> str:
     """The command's last line: the choice, its coverage, the report."""
+    from batchveh.analysis.report import steering_lost
+
     if s.chosen is None:
         return f"no motor of the catalogue covers {s.share:.0%} in the loop; report: {paths['html']}"
     row = s.loop.set_index("motor").loc[s.chosen]
     c = s.catalogue[s.chosen].resolved()
     lost = f", {int(row['not_simulated'])} variants not simulated" if row["not_simulated"] else ""
+    steered = steering_lost(row, len(s.servo))
+    lost += f", {steered} the steering lost (not counted for the drive)" if steered else ""
     return (
         f"chosen: {s.chosen} (gearhead {c['N']:g}:1), covers {row['coverage']:.1%} in the loop "
         f"(screen {float(s.screen.set_index('motor').loc[s.chosen, 'coverage']):.1%}){lost}; steering {s.steer}; "

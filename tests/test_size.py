@@ -265,3 +265,25 @@ def test_a_batch_is_read_as_one_drive_at_a_time():
     assert (again["chosen"], again["judged"], again["done"]) == ("b", ["b"], 2)
     given = read_batch(["a", "b", "c"], table, "s1", ["s1"], 0.99)
     assert (given["steer"], given["judged"], given["chosen"]) == ("s1", ["a", "b"], "b")
+
+
+def test_a_choice_over_the_runs_the_steering_held_says_how_many_it_lost(tmp_path, capsys):
+    """The 250 kg AGV with a 1.9 N m steering motor given: the steering loses most runs, and the drive is judged
+    on the rest. The last line and the report's verdict count them: judged plus lost make the variants."""
+    import json
+
+    out = tmp_path / "agv"
+    argv = [str(ROOT / "sweeps" / "warehouse_agv.yaml"), "--catalogue", str(CATALOGUE), "--limit", "12",
+            "--steer", "faulhaber-3564K024B_NPT015-i40", "--out", str(out), "--quiet"]  # fmt: skip
+    assert main(argv) == EXIT_OK
+    summary = json.loads((out / "sizing.json").read_text())
+    loop, chosen = pd.DataFrame(summary["loop"]).set_index("motor"), summary["chosen"]
+    assert chosen is not None
+    lost = 12 - int(loop.loc[chosen, "not_simulated"]) - int(loop.loc[chosen, "judged"])
+    assert lost > 0  # the small steering loses runs here
+    assert f", {lost} the steering lost (not counted for the drive)" in capsys.readouterr().out.strip().splitlines()[-1]
+    head = (out / "report.md").read_text()
+    judged = int(loop.loc[chosen, "judged"])
+    assert (
+        f"of the {judged} variant{'s' * (judged != 1)} judged in the loop (the other {lost} the steering lost" in head
+    )

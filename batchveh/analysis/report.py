@@ -498,11 +498,22 @@ def headline(s: Sizing) -> str:
         )
     row = s.loop.set_index("motor").loc[s.chosen]
     c = s.catalogue[s.chosen].resolved()
+    lost = steering_lost(row, n)
+    judged = f" (the other {lost} the steering lost: not counted for the drive)" if lost else ""
     return (
         f"{s.chosen}: its gearhead {c['N']:g}:1 (efficiency {c['eta']:g}) covers {row['coverage']:.1%} of the "
-        f"{n - int(row['not_simulated'])} variants simulated in the loop (asked: {s.share:.0%}), "
+        f"{_variants(n - int(row['not_simulated']) - lost)} judged in the loop{judged} (asked: {s.share:.0%}), "
         f"{float(s.screen.set_index('motor').loc[s.chosen, 'coverage']):.1%} in the screen."
     )
+
+
+def _variants(k: int) -> str:
+    return f"{k} variant{'s' * (k != 1)}"
+
+
+def steering_lost(row: Any, n: int) -> int:
+    """Of a loop row's `n` variants, those simulated that its drive is not judged on: the steering's misses."""
+    return n - int(row["not_simulated"]) - int(row.get("judged", n - int(row["not_simulated"])))
 
 
 def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
