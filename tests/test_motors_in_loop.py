@@ -385,3 +385,48 @@ def test_the_loop_takes_its_hot_run_in_closed_form_and_runs_only_what_it_cannot_
                 np.testing.assert_allclose(a[col], b[col], rtol=SAME_RTOL, atol=1e-9, err_msg=col)
             else:
                 assert a[col].tolist() == b[col].tolist(), col
+
+
+def test_the_closed_form_redoes_what_its_bounds_cannot_say():
+    """hot_columns on a hand-made run, every motor alike, started 30 K hot: its gain g = 0.9 and its peak kept at
+    20 and 35 K hotter as 118 and 132.75 deg C. The peak reads the interpolation, 127.83, within its bounds
+    [max(118 + 0.9 x 10, 132.75 - 5), 127.83] = [127.75, 127.83]; the end 90 + 0.9 x 30. Redone: a winding
+    maximum inside the bounds, a voltage margin below the start / HOT_MARGIN, and a battery whose power lies in
+    [P, P + 30 K x 1 W/K]; not redone: a maximum outside them (a sure pass or a sure miss), a margin above, and a
+    battery above."""
+    import pandas as pd
+
+    from batchveh.analysis.motors import GROUP_RISES, hot_columns
+    from batchveh.stepping.motor_stats import HOT_GRID
+
+    margins = np.array([1e3, 25.0, 31.0])  # the start 30 K: at 25 K a step reaches the line; at 31 K none does
+    n = len(margins)
+    peaks = dict(zip((0.0, *HOT_GRID), (100.0, 104.5, 109.0, 118.0, 132.75, 150.0, 175.0, 205.0), strict=True))
+    cols = {"bus_energy_wh": np.zeros(n), "bus_power_peak": np.full(n, 100.0), "bus_power_gain_drive": np.ones(n),
+            "bus_power_gain_steer": np.zeros(n)}  # fmt: skip
+    for names in GROUP_RISES.values():
+        for m in names:
+            cols.update({f"{m}_temp_gain": np.full(n, 0.9), f"{m}_winding_temp_end": np.full(n, 90.0),
+                         f"{m}_voltage_margin": margins, f"{m}_energy_drawn": np.ones(n),
+                         f"{m}_energy_regen": np.zeros(n), f"{m}_heat_gain_drawn": np.zeros(n),
+                         f"{m}_heat_gain_regen": np.zeros(n), f"{m}_winding_temp_peak": np.full(n, peaks[0.0]),
+                         **{f"{m}_winding_temp_peak_{v:g}K": np.full(n, peaks[v]) for v in HOT_GRID}})  # fmt: skip
+    res = pd.DataFrame(cols)
+    start = {k: np.full(n, 30.0) for k in GROUP_RISES}
+
+    def redo(t_max, battery=None, frame=res, at_35=132.75):
+        out, again = hot_columns(frame, start, {k: {"T_max": t_max} for k in GROUP_RISES}, battery)
+        np.testing.assert_allclose(out["steer_rr_winding_temp_peak"], 118.0 + (at_35 - 118.0) * 10.0 / 15.0)
+        np.testing.assert_allclose(out["drive_lf_winding_temp_end"], 90.0 + 0.9 * 30.0)
+        return again.tolist()
+
+    assert redo(127.8) == [True, True, True]  # inside the peak's bounds
+    assert redo(127.5) == [False, True, False]  # below them: a sure miss
+    assert redo(128.0) == [False, True, False]  # above them: a sure pass
+    at_115_w = Battery(nominal_voltage=115.0, internal_resistance=0.0, max_continuous_discharge_current=1.0)
+    assert redo(128.0, at_115_w) == [True, True, True]  # 115 W inside [100, 130]
+    assert redo(128.0, Battery()) == [False, True, False]  # 920 W: above
+    # 131.75 at 35 K: the bounds [max(127, 126.75), 127.17], the lower one now the gain's
+    flatter = res.assign(**{c: 131.75 for c in res if c.endswith("_winding_temp_peak_35K")})
+    assert redo(126.9, frame=flatter, at_35=131.75) == [False, True, False]
+    assert redo(127.1, frame=flatter, at_35=131.75) == [True, True, True]
