@@ -518,7 +518,9 @@ def verdict_line(s: Any, paths: dict[str, Path]) -> str:
     from batchveh.analysis.report import steering_lost
 
     if s.chosen is None:
-        return f"no motor of the catalogue covers {s.share:.0%} in the loop; report: {paths['html']}"
+        none_judged = "judged" in s.loop and len(s.loop) > 0 and not (s.loop["judged"] > 0).any()
+        why = f"; no drive could be judged: the steering ({s.steer}) lost every run" if none_judged else ""
+        return f"no motor of the catalogue covers {s.share:.0%} in the loop{why}; report: {paths['html']}"
     row = s.loop.set_index("motor").loc[s.chosen]
     c = s.catalogue[s.chosen].resolved()
     lost = f", {int(row['not_simulated'])} variants not simulated" if row["not_simulated"] else ""

@@ -287,3 +287,17 @@ def test_a_choice_over_the_runs_the_steering_held_says_how_many_it_lost(tmp_path
     assert (
         f"of the {judged} variant{'s' * (judged != 1)} judged in the loop (the other {lost} the steering lost" in head
     )
+
+
+def test_a_steering_that_loses_every_run_is_named_as_the_reason_no_drive_was_judged(tmp_path, capsys):
+    """The same AGV on its first 6 conditions: the 1.9 N m steering loses all six, so no drive is judged. The last
+    line and the report say that it is the steering's, and name its misses, never a drive's coverage of 0%."""
+    out = tmp_path / "agv"
+    argv = [str(ROOT / "sweeps" / "warehouse_agv.yaml"), "--catalogue", str(CATALOGUE), "--limit", "6",
+            "--steer", "faulhaber-3564K024B_NPT015-i40", "--out", str(out), "--quiet"]  # fmt: skip
+    assert main(argv) == EXIT_OK
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert "no drive could be judged: the steering (faulhaber-3564K024B_NPT015-i40) lost every run" in last
+    head = (out / "report.md").read_text().splitlines()[2]
+    assert head.startswith("No drive motor could be judged: the steering motor faulhaber-3564K024B_NPT015-i40 lost")
+    assert "lost " in head.split("loop (")[1] and "covers 0.0%" not in head, head

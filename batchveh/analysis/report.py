@@ -492,6 +492,12 @@ def headline(s: Sizing) -> str:
         if best is None:
             return f"No motor of the catalogue covers {s.share:.0%} of the {n} variants in the loop."
         q = s.loop.set_index("motor").loc[best]
+        lost = steering_lost(q, n)
+        if lost and lost == n - int(q["not_simulated"]):  # no drive could be judged
+            return (
+                f"No drive motor could be judged: the steering motor {q['steer']} lost every run simulated in the "
+                f"loop ({_counts(q, STEER_REASONS, prefix='steer_fails_')}); the steering's table says what holds."
+            )
         return (
             f"No motor of the catalogue covers {s.share:.0%} of the {n} variants in the loop. The best, {best}, "
             f"covers {q['coverage']:.1%}; it misses for: {_counts(q, IN_LOOP_REASONS)} (the figures show it)."
