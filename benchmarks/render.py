@@ -477,8 +477,15 @@ ROWS = [
         "`python benchmarks/sizing.py seed --n 100000 --backend warp --warm 2`",
     ),
     Row(
-        "A sizing session on 2 cores: the robot (friction swept), 400 LHS conditions, MuJoCo C, two runs in the loop "
-        "(issue 52: within 4x its servo sweep)",
+        "A sizing session on 2 cores: the robot (friction swept), 400 LHS conditions, MuJoCo C, the hot run in closed "
+        "form (issue 52: within 4x its servo sweep)",
+        ["cpu-2core-sizing-robot-400-closed.json"],
+        _sizing("warm"),
+        TWO_CORES,
+        "`python benchmarks/sizing.py robot --n 400 --backend mujoco --warm 2`",
+    ),
+    Row(
+        "The same with two runs in the loop (before the closed form)",
         ["cpu-2core-sizing-robot-400.json"],
         _sizing("warm"),
         TWO_CORES,
