@@ -434,10 +434,27 @@ ROWS = [
         "A sizing session on the seed, warm caches: benchmarks/slope_100k.yaml (100,000 x 10 s) at `--share 0.9`, "
         "one candidate, its hot run in closed form from its cold one, run again for 1.7% of the conditions (issue 52: "
         "at most 45 s)",
+        ["h100-sizing-seed-100000-3.json"],
+        _sizing("warm"),
+        "one H100 host, 16 cores (its caches warm from a profiled session before: the JSON's `first` run, 37.9 s, "
+        "was warm too)",
+        "`python benchmarks/sizing.py seed --n 100000 --backend warp --warm 3`",
+    ),
+    Row(
+        "The same session, the same code, on two other H100 hosts, where the plain sweep itself took 19% longer",
         ["h100-sizing-seed-100000.json", "h100-sizing-seed-100000-2.json"],
         _sizing("warm"),
         "two H100 hosts, 16 cores each",
         "`python benchmarks/sizing.py seed --n 100000 --backend warp --warm 2`",
+    ),
+    Row(
+        "The seed's session at 1,000,000 conditions (1,000,000 x 10 s; in the loop 1.8% run hot) on one GPU, its "
+        "first run on a fresh host: the baseline of issue 52's four-GPU comparison (not run: no four-GPU machine "
+        "was lent)",
+        ["h100-sizing-seed-1000000.json"],
+        _sizing("first"),
+        "one fresh H100 host, 16 cores",
+        "`python benchmarks/sizing.py seed --n 1000000 --backend warp --warm 0`",
     ),
     Row(
         "The robot's session with two runs in the loop (from ambient, then from the hot start), and MJX imported by "

@@ -68,6 +68,52 @@ def timed(cmd: list[str]) -> tuple[float, str]:
     return wall, (summary or lines or [""])[-1]
 
 
+def write(args: argparse.Namespace, runs: list[dict], share: str) -> Path:
+    """The JSON of the runs so far (written after each run, so that a run cut short by a time limit keeps the
+    ones before it): the ratio to the sweep once the sweep ran."""
+    try:
+        gpu = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"], capture_output=True,
+                             text=True, check=False).stdout.strip().splitlines()  # fmt: skip
+    except OSError:
+        gpu = []
+    versions = {}
+    for pkg in ("mujoco", "mujoco-warp", "warp-lang", "jax"):
+        try:
+            versions[pkg] = metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            versions[pkg] = None
+    sweep = next((r["wall_s"] for r in runs if r["kind"] == "sweep"), None)
+    path = Path(args.json or ROOT / "benchmarks" / "results" / f"{args.label}-sizing-{args.session}-{args.n}.json")
+    path.write_text(
+        json.dumps(
+            {
+                "what": __doc__.split("\n\n")[0],
+                "date": str(date.today()),
+                "session": args.session,
+                "conditions": args.n,
+                "share": float(share),
+                "backend": args.backend,
+                "executor": args.executor or "default",
+                "machine": {
+                    "label": args.label,
+                    "cpus": os.cpu_count(),
+                    "gpus": gpu,
+                    "python": platform.python_version(),
+                },  # fmt: skip
+                "versions": versions,
+                "runs": runs,
+                "session_over_sweep": {
+                    r["kind"]: round(r["wall_s"] / sweep, 3) for r in runs if r["kind"] != "sweep" and sweep
+                },
+                "code": args.note,
+            },
+            indent=1,
+        )
+        + "\n"
+    )
+    return path
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("session", choices=sorted(SESSIONS))
@@ -109,49 +155,13 @@ def main() -> None:
         runs.append(row)
         shutil.rmtree(out, ignore_errors=True)
         print(f"{kind:6} {wall:8.1f} s  {line[:150]}", flush=True)
+        path = write(args, runs, share)
     sweep = next(r["wall_s"] for r in runs if r["kind"] == "sweep")
-    print(f"\n{'run':6} {'wall s':>8} {'/ sweep':>8} {'servo':>7} {'loop':>7} {'report':>7}")
+    print(f"\n{'run':6} {'wall s':>8} {'/ sweep':>8} {'servo':>7} {'loop':>7} {'screen':>7}")
     for r in runs:
         p = r.get("phases_s", {})
         print(f"{r['kind']:6} {r['wall_s']:8.1f} {r['wall_s'] / sweep:8.2f} {p.get('servo sweep', 0):7.1f} "
-              f"{p.get('in the loop', 0):7.1f} {p.get('report', 0):7.1f}")  # fmt: skip
-    try:
-        gpu = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"], capture_output=True,
-                             text=True, check=False).stdout.strip().splitlines()  # fmt: skip
-    except OSError:
-        gpu = []
-    versions = {}
-    for pkg in ("mujoco", "mujoco-warp", "warp-lang", "jax"):
-        try:
-            versions[pkg] = metadata.version(pkg)
-        except metadata.PackageNotFoundError:
-            versions[pkg] = None
-    path = Path(args.json or ROOT / "benchmarks" / "results" / f"{args.label}-sizing-{args.session}-{args.n}.json")
-    path.write_text(
-        json.dumps(
-            {
-                "what": __doc__.split("\n\n")[0],
-                "date": str(date.today()),
-                "session": args.session,
-                "conditions": args.n,
-                "share": float(share),
-                "backend": args.backend,
-                "executor": args.executor or "default",
-                "machine": {
-                    "label": args.label,
-                    "cpus": os.cpu_count(),
-                    "gpus": gpu,
-                    "python": platform.python_version(),
-                },
-                "versions": versions,
-                "runs": runs,
-                "session_over_sweep": {r["kind"]: round(r["wall_s"] / sweep, 3) for r in runs if r["kind"] != "sweep"},
-                "code": args.note,
-            },
-            indent=1,
-        )
-        + "\n"
-    )
+              f"{p.get('in the loop', 0):7.1f} {p.get('screen', 0):7.1f}")  # fmt: skip
     print(f"wrote {path}")
 
 

@@ -289,7 +289,53 @@ STUDIES = [
         lambda: f"{e(_json('sensitivity.json')['climb_N64']['drive_sum_mean_vs_m_g_sin_r_max_rel'])} largest",
         "validation/sensitivity.py, [sensitivity.md](sensitivity.md)",
     ),
+    (
+        "The loop's hot run in closed form from its cold run (issue 52), MuJoCo C",
+        "every variant run hot (`in_loop(closed=False)`)",
+        "verdicts equal; the peak never below",
+        lambda: _hot("hot_closed_form.json"),
+        "validation/hot_closed_form.py, [motors.md](motors.md)",
+    ),
+    (
+        "The same on one H100 (float32), the seed, with the GPU's run-to-run floor",
+        "every variant run hot, twice",
+        "differences within the floor's",
+        lambda: _hot_floor("hot_closed_form-h100-floor.json"),
+        "validation/hot_closed_form.py --floor, [motors.md](motors.md)",
+    ),
 ]
+
+
+def _hot(name: str) -> str:
+    """hot_closed_form's cases: the verdict rows that differ (motors' verdicts; `steady`, `slipping` and
+    `motor_status` apart), and the drive's winding peak, closed form minus the run (p99 of |d|, signed range)."""
+    parts = []
+    for case, c in _json(name)["cases"].items():
+        rows = c["verdict_rows_differing"]
+        motors = sum(v for k, v in rows.items() if k.startswith(("fails_", "steer_fails_", "where", "judged")))
+        peak = c["differences_by_kind"].get("drive winding_temp_peak", {"p99": 0.0, "min_signed": 0.0, "max": 0.0})
+        parts.append(
+            f"{case} ({c['conditions']:,}): {motors} verdict rows differ, peak p99 {peak['p99']:.2g} K "
+            f"(range {peak['min_signed']:+.2g}..{peak['max']:.2g} K)"
+        )
+    return "; ".join(parts)
+
+
+def _hot_floor(name: str) -> str:
+    """The same case against the engine's own noise: every variant run hot twice."""
+    out = []
+    for case, c in _json(name)["cases"].items():
+        f = c["floor_every_variant_hot_twice"]
+        peak, floor = (
+            c["differences_by_kind"]["drive winding_temp_peak"],
+            f["differences_by_kind"]["drive winding_temp_peak"],
+        )
+        out.append(
+            f"{case} ({c['conditions']:,}): the closed form against a hot run, largest {peak['max']:.2g} K, p99 "
+            f"{peak['p99']:.2g} K; two hot runs against each other, largest {floor['max']:.2g} K, p99 "
+            f"{floor['p99']:.2g} K"
+        )
+    return "; ".join(out)
 
 
 def render() -> str:

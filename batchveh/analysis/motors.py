@@ -159,7 +159,7 @@ def _ramp_shortfall(speed: np.ndarray, ramp_time: np.ndarray, window: tuple[floa
     start, end = window
     dt = end / RAMP_STEPS
     w = np.zeros_like(speed)
-    got, want = np.zeros_like(speed), np.zeros_like(speed)
+    got, want, ref = np.zeros_like(speed), np.zeros_like(speed), np.empty_like(speed)
     ramp = np.maximum(ramp_time, 1e-12)
     one = ramp[:1] if len(ramp) and np.all(ramp == ramp[0]) else ramp  # one ramp time: the fraction a scalar
     climb = a_max * dt
@@ -173,8 +173,9 @@ def _ramp_shortfall(speed: np.ndarray, ramp_time: np.ndarray, window: tuple[floa
             frac = np.clip(x, 0.0, 1.0)
         else:
             frac = x
-        ref = speed * frac
-        w = np.minimum(ref, w + climb)
+        np.multiply(speed, frac, out=ref)  # in place: the same arithmetic, no array made per step
+        w += climb
+        np.minimum(ref, w, out=w)
         if t >= start:
             got += w
             want += ref
