@@ -75,13 +75,13 @@ def catalogue_of(path: str) -> dict[str, Any]:
 
 
 def battery_of(path: str) -> Any:
-    """The catalogue's battery, or None where it has none."""
+    """The catalogue's battery, or None where it has no `battery:` section (one that is there and wrong is a
+    ConfigError line, as the rest of the catalogue's)."""
     from batchveh.analysis.motors import load_battery
+    from batchveh.config import load_yaml
 
-    try:
-        return load_battery(path)
-    except ConfigError:
-        return None
+    data = load_yaml(path)
+    return load_battery(path) if isinstance(data, dict) and "battery" in data else None
 
 
 def _column(df: Any, name: str, default: float) -> Any:
@@ -426,6 +426,8 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
     looped = resolve_backend(args.backend or spec.backend)
     looped = "mujoco" if looped == "mjx" else looped  # MJX's JAX implementation has no dcmotor: MuJoCo C runs it
     runner = sweep_runner(out / "loop", catalogue, looped, executor)
+    # the battery's energy and power are checked in the loop, apart: its limits are not a motor's
+    battery = battery_of(args.catalogue)
     t0 = time.perf_counter()
     pending = list(runs)
     while pending and chosen is None:  # the drives smallest first, a batch at a time (`batch_of`)
@@ -435,7 +437,7 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
         bar.refresh()
         _, t, d = in_loop(
             spec, df, catalogue, batch, steer=steer, share=args.share, duty=spec.duty, stop_at_first=False,
-            run=runner,
+            run=runner, battery=battery, battery_apart=True,
         )  # fmt: skip
         bar.update(n * per * len(batch))
         read = read_batch(batch, t, steer, ranked_steer if args.steer is None else [steer], args.share)
@@ -495,7 +497,7 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
         span=span,
         steer_given=args.steer is not None,
         catalogue=cat,
-        battery=battery_of(args.catalogue),
+        battery=battery,
         trace=series,
         worst=values,
         worst_note=worst_note,
@@ -526,6 +528,8 @@ def verdict_line(s: Any, paths: dict[str, Path]) -> str:
     lost = f", {int(row['not_simulated'])} variants not simulated" if row["not_simulated"] else ""
     steered = steering_lost(row, len(s.servo))
     lost += f", {steered} the steering lost (not counted for the drive)" if steered else ""
+    over = int(row.get("battery_over", 0))
+    lost += f", {over} past the battery's energy or power (the battery's, not counted)" if over else ""
     return (
         f"chosen: {s.chosen} (gearhead {c['N']:g}:1), covers {row['coverage']:.1%} in the loop "
         f"(screen {float(s.screen.set_index('motor').loc[s.chosen, 'coverage']):.1%}){lost}; steering {s.steer}; "

@@ -69,7 +69,7 @@ def mjx_output_dtypes(monkeypatch) -> set[str]:
 # The results' Arrow schema (tests/test_schema.py), written by hand from the columns' documented meaning
 # (results.column_doc), not read from a result
 LABELS = {"status", "motor", "reasons", "steer_reasons", "motor_status", "motor_check"}
-FLAGS = {"slipping", "steady", "reached", "cleared", "simulated", "steer_held", "fits", "motor_limited"}
+FLAGS = {"slipping", "steady", "reached", "cleared", "simulated", "steer_held", "fits", "motor_limited", "battery_over"}
 
 
 def _expected(name: str) -> str:

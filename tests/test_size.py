@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 from conftest import schema_misses
 
 from batchveh.size import EXIT_EXISTS, EXIT_INPUT, EXIT_OK, candidates, main
@@ -301,3 +302,46 @@ def test_a_steering_that_loses_every_run_is_named_as_the_reason_no_drive_was_jud
     head = (out / "report.md").read_text().splitlines()[2]
     assert head.startswith("No drive motor could be judged: the steering motor faulhaber-3564K024B_NPT015-i40 lost")
     assert "lost " in head.split("loop (")[1] and "covers 0.0%" not in head, head
+
+
+def test_the_battery_is_judged_apart_never_against_a_drive(sized, tmp_path, capsys):
+    """The robot's 12 conditions again, with the catalogue's battery cut to a continuous discharge current whose
+    power, (V - I R) I, sits at the median of the chosen motor's peak bus powers run hot by hand (`in_loop` with
+    no battery, every variant run hot): about half the runs pass it. The choice and its coverage stay the first
+    run's (the battery is not a motor's miss); the loop's row, the last line, the report and verdicts.parquet
+    count the runs past it: those whose hot bus power passes (V - I R) I, worked out here."""
+    import batchveh
+    from batchveh.analysis.motors import in_loop
+
+    out0, _, _ = sized
+    first = json.loads((out0 / "sizing.json").read_text())
+    chosen = first["chosen"]
+    spec, df = batchveh.load_spec(SPEC), batchveh.load(out0 / "servo")
+    _, _, detail = in_loop(spec, df, CATALOGUE, [chosen], steer=first["steer"], share=0.99, closed=False)
+    d = detail[chosen]
+    power_hot = d["bus_power_peak"].to_numpy(float)[d["judged"].to_numpy(bool)]
+    raw = yaml.safe_load(CATALOGUE.read_text())
+    v, r = raw["battery"]["nominal_voltage"], raw["battery"]["internal_resistance"]
+    p_mid = float(np.median(power_hot))
+    current = (v - np.sqrt(v * v - 4 * r * p_mid)) / (2 * r)  # (V - I R) I = p_mid, the smaller root
+    raw["battery"]["max_continuous_discharge_current"] = float(current)
+    cat = tmp_path / "motors.yaml"
+    cat.write_text(yaml.safe_dump(raw, sort_keys=False))
+    expected = int((power_hot > (v - current * r) * current).sum())
+    assert 0 < expected < len(power_hot)  # the median cuts the runs: some pass, some do not
+
+    out = tmp_path / "robot"
+    argv = [str(SPEC), "--catalogue", str(cat), "--limit", str(LIMIT), "--out", str(out), "--quiet"]
+    assert main(argv) == EXIT_OK
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    summary = json.loads((out / "sizing.json").read_text())
+    assert summary["chosen"] == chosen
+    row = next(q for q in summary["loop"] if q["motor"] == chosen)
+    assert row["coverage"] == next(q["coverage"] for q in first["loop"] if q["motor"] == chosen)
+    assert row["battery_over"] == expected
+    assert f", {expected} past the battery's energy or power (the battery's, not counted)" in last
+    verdicts = pd.read_parquet(out / "verdicts.parquet")
+    assert int(verdicts.loc[verdicts["motor"] == chosen, "battery_over"].sum()) == expected
+    assert schema_misses(out / "verdicts.parquet") == {}
+    md = (out / "report.md").read_text()
+    assert "## The battery" in md and f"is passed in {expected} of them" in md

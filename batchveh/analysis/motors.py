@@ -757,6 +757,7 @@ def in_loop(
     duty: float | None = None,
     run: Runner | None = None,
     closed: bool = True,
+    battery_apart: bool = False,
 ) -> tuple[str | None, pd.DataFrame, dict[str, pd.DataFrame]]:
     """The second pass: `candidates` run as the drive motors in the loop (MuJoCo's dcmotor), on the variants
     of the servo sweep `df`, all in one batch: each (candidate, variant) pair is a variant of one sweep, its
@@ -769,13 +770,17 @@ def in_loop(
     runs read it, as a sweep's `motors.catalogue` does; not the dict of `batchveh.load_catalogue`);
     `candidates`: catalogue names, smallest first (e.g. the `screen` table's motors with enough coverage);
     `steer`: the catalogue name of the steering motors. A name not in the catalogue is one ConfigError line
-    with did-you-mean. `battery`: a Battery (`batchveh.load_battery(path)`), or None for no energy check.
+    with did-you-mean. `battery`: a Battery (`batchveh.load_battery(path)`), or None for no energy check;
+    `battery_apart`: its verdict (the run's bus energy or peak power above the battery's) is not counted against
+    the drive but given apart, as the row's and the detail's `battery_over` (the size command's: the battery's
+    limits are not the motor's, and no motor of the catalogue would lift them).
 
     Returns a 3-tuple (best, table, detail): the first candidate that covers `share` of the variants
     simulated, or None; a DataFrame with one row per candidate run (motor, gear_ratio,
     continuous_torque_at_wheel, coverage, judged, not_simulated, not_simulated_why, fails_<reason> for each of
-    IN_LOOP_REASONS, start_rise_median, residual_K, runs; `in_loop_lines` words it); {name: DataFrame} per
-    candidate, each variant's parameters, its in-the-loop columns and fails_<reason> (True = fails). A
+    IN_LOOP_REASONS, start_rise_median, residual_K, runs, hot_runs, battery_over; `in_loop_lines` words it);
+    {name: DataFrame} per candidate, each variant's parameters, its in-the-loop columns, fails_<reason> (True =
+    fails), judged and battery_over. A
     variant whose run diverged, or failed a physics check (`motor_status` unstable) with its steering held, could
     not be simulated (`not_simulated`): it is counted in the row's `not_simulated`, never as a reason, and the
     coverage is over the variants simulated.
@@ -830,6 +835,9 @@ def in_loop(
                 servo_speed = servo["wheel_speed"].to_numpy(float) if "wheel_speed" in servo else None
             behind = segment_shortfall(servo, res)
             why = _in_loop_reasons(res, motor, c, battery, LIMITED_SHARE, duty, servo_speed, behind != "")
+            over = why["energy"].to_numpy().copy()  # past the battery's energy or power (all False without one)
+            if battery_apart:
+                why["energy"] = False
             # named by a mission's segment it fell behind in, or whose servo speed passed the no-load speed (as
             # the screen names it); else the cycle's ("mission"), or a straight line's window
             fast = _first_segment_above(servo, c["V"] / (c["K"] * c["N"]))
@@ -840,6 +848,7 @@ def in_loop(
             steer_why.loc[lost, :] = False
             steer_bad = steer_why.any(axis=1).to_numpy()
             judged = ~lost & ~steer_bad  # the drive is judged where the run was simulated and its steering held
+            over &= judged
             fits = ~why.any(axis=1)
             simulated = max(int((~lost).sum()), 1)
             counted = max(int(judged.sum()), 1)
@@ -862,6 +871,7 @@ def in_loop(
                     "residual_K": residual,
                     "runs": runs,
                     "hot_runs": ran,  # the variants its hot run ran for (-1: all; else the closed form's rest)
+                    "battery_over": int(over.sum()),  # judged runs past the battery's energy or power
                 }
             )
             detail[name] = pd.concat(
@@ -872,6 +882,7 @@ def in_loop(
                     steer_why.add_prefix("steer_fails_"),
                     where.rename("where"),
                     pd.Series(judged, name="judged"),
+                    pd.Series(over, name="battery_over"),
                 ],
                 axis=1,
             )

@@ -212,7 +212,8 @@ def verdicts(s: Sizing) -> pd.DataFrame:
     fails (`;`-separated, IN_LOOP_REASONS), `motor_status`, `motor_check`, whether it could be simulated, whether
     its steering held (`steer_held`) and why not (`steer_reasons`, STEER_REASONS). `fits` needs the steering held:
     a variant the steering missed is not judged for the drive. Also each run's motor_torque_ratio, its steering
-    error (deg) and its steering motors' largest share of the run at the current limit."""
+    error (deg), its steering motors' largest share of the run at the current limit, and whether it passed the
+    battery's energy or continuous power (`battery_over`, judged runs only: the battery's, never a motor's miss)."""
     frames = []
     for name, d in s.detail.items():
         why = d[[f"fails_{r}" for r in IN_LOOP_REASONS]].to_numpy(bool)
@@ -231,6 +232,7 @@ def verdicts(s: Sizing) -> pd.DataFrame:
         f["motor_torque_ratio"] = d["motor_torque_ratio"].to_numpy(float)
         f["steer_track_err_deg"] = d["steer_track_err_deg"].to_numpy(float)
         f["steer_at_current_share"] = d[[f"{m}_at_current_share" for m in GROUPS["steer"]]].max(axis=1).to_numpy()
+        f["battery_over"] = d["battery_over"].to_numpy(bool) if "battery_over" in d else np.zeros(len(d), bool)
         frames.append(f)
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
 
@@ -463,6 +465,44 @@ def energy_line(s: Sizing) -> str:
     )
 
 
+def battery_line(s: Sizing) -> str:
+    """The battery against the chosen (or best) motor's runs judged in the loop: the peak bus power's median, p99
+    and largest, and how many runs pass its continuous power or its energy (given apart: never a motor's miss)."""
+    name = focus(s)
+    if name is None or name not in s.detail or s.battery is None or "battery_over" not in s.detail[name]:
+        return ""
+    d = s.detail[name]
+    judged = d["judged"].to_numpy(bool)
+    if not judged.any():
+        return ""
+    b = s.battery
+    power = d["bus_power_peak"].to_numpy(float)[judged]
+    over_p = int((power > b.max_power).sum())
+    over_e = int((d["bus_energy_wh"].to_numpy(float)[judged] > b.energy_wh).sum())
+    n = int(judged.sum())
+    line = (
+        f"Peak bus power on {name} (the eight motors): {np.median(power):.0f} W at the median, p99 "
+        f"{np.percentile(power, 99):.0f} W, {power.max():.0f} W at the largest, over the {_variants(n)} judged. The "
+        f"battery's continuous power ({b.max_power:.0f} W: {b.max_continuous_discharge_current:g} A from "
+        f"{b.nominal_voltage:g} V less its {b.internal_resistance:g} Ohm) is passed in {over_p} of them, its "
+        f"energy ({b.energy_wh:.0f} Wh) in {over_e}."
+    )
+    if over_p or over_e:
+        line += (
+            " These are the battery's limits, not a motor's: those runs are not counted against any drive. A peak "
+            "as short as a ramp's may lie within the battery's burst rating, which the catalogue does not give."
+        )
+    return line
+
+
+def battery_over(s: Sizing) -> int:
+    """The runs judged in the loop on the chosen (or best) motor that pass the battery's energy or power."""
+    name = focus(s)
+    if name is None or "battery_over" not in s.loop:
+        return 0
+    return int(s.loop.set_index("motor").loc[name, "battery_over"])
+
+
 def steer_segments_line(s: Sizing) -> str:
     """A mission's steering demand by segment: which segment sets the steering's low-pass peak and its RMS, in how
     many variants, and the p99 of each, from the servo's run (the screen) and the chosen drive's run in the loop."""
@@ -485,7 +525,18 @@ def steer_segments_line(s: Sizing) -> str:
 
 
 def headline(s: Sizing) -> str:
-    """The verdict in one sentence."""
+    """The verdict in one sentence, and the battery's where the runs pass it."""
+    over = battery_over(s)
+    battery = (
+        f" The battery's energy or continuous power is passed in {over} of the runs judged: the battery's limits, "
+        "not counted against a motor (The battery)."
+        if over
+        else ""
+    )
+    return _headline(s) + battery
+
+
+def _headline(s: Sizing) -> str:
     n = len(s.servo)
     if s.chosen is None:
         best = focus(s)
@@ -524,7 +575,8 @@ def steering_lost(row: Any, n: int) -> int:
 
 def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
     """The page as (heading, kind, content): kind 'text', 'table' (a DataFrame), 'figure' (a path), 'code'."""
-    reasons = "; ".join(f"{k.replace('_', ' ')}: {v}" for k, v in IN_LOOP_TEXT.items())
+    apart = {"energy": "the battery's energy or power: given apart (The battery), never counted against a motor"}
+    reasons = "; ".join(f"{k.replace('_', ' ')}: {apart.get(k, v)}" for k, v in IN_LOOP_TEXT.items())
     screen = "; ".join(f"{k.replace('_', ' ')}: {v}" for k, v in REASON_TEXT.items())
     by_segment = steer_segments_line(s)
     out: list[tuple[str, str, Any]] = [
@@ -559,9 +611,9 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
     ]  # fmt: skip
     for title, path in figs.items():
         out.append((title, "figure", path))
-    energy = energy_line(s)
-    if energy:
-        out.append(("Energy per cycle", "text", energy))
+    energy, battery = energy_line(s), battery_line(s)
+    if energy or battery:
+        out.append(("The battery", "text", " ".join(x for x in (energy, battery) if x)))
     out.append(("Catalogue entries", "table", catalogue_table(s)))
     out.append(("Inputs", "code", s.spec_text))
     meta = {**s.versions, **{f"wall {k} (s)": f"{v:.1f}" for k, v in s.wall_s.items()}}
