@@ -441,6 +441,28 @@ ROWS = [
         "`python benchmarks/sizing.py seed --n 100000 --backend warp --warm 3`",
     ),
     Row(
+        "The seed's session with the screen's motors in threads and the battery judged apart in the loop (its "
+        "power verdicts inside the closed form's bounds run hot too: 2.3% of the conditions), warm caches",
+        ["h200-sizing-seed-100000-c.json"],
+        _sizing("warm"),
+        "one fresh H200 host, 16 cores (the default kind gave an H200)",
+        "`python benchmarks/sizing.py seed --n 100000 --backend warp --warm 2`",
+    ),
+    Row(
+        "The same session's first run on that fresh H200 host",
+        ["h200-sizing-seed-100000-c.json"],
+        _sizing("first"),
+        "one fresh H200 host, 16 cores",
+        "`python benchmarks/sizing.py seed --n 100000 --backend warp --warm 2` (its `first` run)",
+    ),
+    Row(
+        "The robot's session (as above) with the same code, on the same host after the seed's",
+        ["h200-sizing-robot-100000-c.json"],
+        _sizing("warm"),
+        "the same H200 host, 16 cores",
+        "`python benchmarks/sizing.py robot --n 100000 --backend warp --warm 1`",
+    ),
+    Row(
         "The same session, the same code, on two other H100 hosts, where the plain sweep itself took 19% longer",
         ["h100-sizing-seed-100000.json", "h100-sizing-seed-100000-2.json"],
         _sizing("warm"),
