@@ -4,6 +4,7 @@ The command's choice equals what `screen` and `in_loop` give when called by hand
 HTML is well-formed and every figure it names exists; bad input is one line and exit 2."""
 
 import json
+import shutil
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -331,6 +332,7 @@ def test_the_battery_is_judged_apart_never_against_a_drive(sized, tmp_path, caps
     assert 0 < expected < len(power_hot)  # the median cuts the runs: some pass, some do not
 
     out = tmp_path / "robot"
+    shutil.copytree(out0 / "servo", out / "servo")  # the servo sweep is the first run's (resumed: not run again)
     argv = [str(SPEC), "--catalogue", str(cat), "--limit", str(LIMIT), "--out", str(out), "--quiet"]
     assert main(argv) == EXIT_OK
     last = capsys.readouterr().out.strip().splitlines()[-1]
