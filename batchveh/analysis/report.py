@@ -257,7 +257,8 @@ def torque_speed(ax, s: Sizing, name: str) -> None:
                         label=f"continuous current: {cont:.2f} N m")  # fmt: skip
     demand = s.servo  # the screen's demand: the servo's window RMS at its mean speed (grey, behind the loop's)
     rms_servo = demand[[f"{m}_rms" for m in WHEELS]].abs().max(axis=1).to_numpy()
-    ax.scatter(demand["wheel_speed"], rms_servo, s=5, color="0.7", label="servo's RMS (the screen's demand)")
+    shared = "servo's RMS, worst wheel (the screen's demand;\nat most the bound where the other wheels can share)"
+    ax.scatter(demand["wheel_speed"], rms_servo, s=5, color="0.7", label=shared)
     speed = demand["wheel_speed"].to_numpy(float)
     from batchveh.analysis.motors import mission_segments
 
