@@ -307,3 +307,32 @@ def test_shared_host_worker_killed(tmp_path, local_ray, monkeypatch, big_referen
         os.kill(pid, 0)
     # the chunks the killed worker held ran again, here or on the restarted worker: each ended once
     assert sorted(e["chunk"] for e in ends) == list(range(8)), ends
+
+
+# -m slow (94 s on 2 cores): the size command's Ray path end to end; its sweeps' Ray path is in the default run above
+@pytest.mark.slow
+def test_the_size_command_on_ray_gives_the_in_process_verdicts(tmp_path, local_ray):
+    """`python -m batchveh.size --executor ray` on 6 of the 60-80 kg robot's conditions (MuJoCo C, float64: the
+    same rows on any executor) against the same command in this process: every row of verdicts.parquet, the
+    choices and the loop's table equal; a second run resumes every sweep (no chunk run again)."""
+    import json
+    from pathlib import Path
+
+    from batchveh.size import main as size
+
+    root = Path(__file__).resolve().parent.parent
+    base = [str(root / "sweeps" / "delivery_robot.yaml"), "--catalogue", str(root / "notebooks" / "motors.yaml"),
+            "--limit", "6", "--quiet"]  # fmt: skip
+    assert size([*base, "--out", str(tmp_path / "here")]) == 0
+    assert size([*base, "--out", str(tmp_path / "ray"), "--executor", "ray"]) == 0
+    here, there = (json.loads((tmp_path / k / "sizing.json").read_text()) for k in ("here", "ray"))
+    assert (here["chosen"], here["steer"]) == (there["chosen"], there["steer"]) and here["chosen"] is not None
+    keep = ("motor", "coverage", "judged", "not_simulated", "hot_runs", "battery_over", "start_rise_median")
+    assert [{k: r[k] for k in keep} for r in here["loop"]] == [{k: r[k] for k in keep} for r in there["loop"]]
+    pd.testing.assert_frame_equal(
+        pd.read_parquet(tmp_path / "here" / "verdicts.parquet"), pd.read_parquet(tmp_path / "ray" / "verdicts.parquet")
+    )
+    parts = {p: p.stat().st_mtime_ns for p in (tmp_path / "ray").rglob("part-*.parquet")}
+    assert parts  # the servo sweep's and the loop's chunks, written by Ray's workers
+    assert size([*base, "--out", str(tmp_path / "ray"), "--executor", "ray", "--overwrite"]) == 0
+    assert {p: p.stat().st_mtime_ns for p in (tmp_path / "ray").rglob("part-*.parquet")} == parts
