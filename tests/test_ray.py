@@ -309,9 +309,9 @@ def test_shared_host_worker_killed(tmp_path, local_ray, monkeypatch, big_referen
     assert sorted(e["chunk"] for e in ends) == list(range(8)), ends
 
 
-# -m slow (94 s on 2 cores): the size command's Ray path end to end; its sweeps' Ray path is in the default run above
+# -m slow (33-94 s on 2 cores): the size command's Ray path end to end; its sweeps' Ray path is in the default run above
 @pytest.mark.slow
-def test_the_size_command_on_ray_gives_the_in_process_verdicts(tmp_path, local_ray):
+def test_the_size_command_on_ray_gives_the_in_process_verdicts(tmp_path, local_ray, monkeypatch):
     """`python -m batchveh.size --executor ray` on 6 of the 60-80 kg robot's conditions (MuJoCo C, float64: the
     same rows on any executor) against the same command in this process: every row of verdicts.parquet, the
     choices and the loop's table equal; a second run resumes every sweep (no chunk run again)."""
@@ -324,7 +324,15 @@ def test_the_size_command_on_ray_gives_the_in_process_verdicts(tmp_path, local_r
     base = [str(root / "sweeps" / "delivery_robot.yaml"), "--catalogue", str(root / "notebooks" / "motors.yaml"),
             "--limit", "6", "--quiet"]  # fmt: skip
     assert size([*base, "--out", str(tmp_path / "here")]) == 0
+    started, start = [], cluster.RayExecutor._start_workers
+
+    def spy(self, *args, **kwargs):  # each sweep whose chunks Ray's workers run
+        started.append(args[0].name)
+        return start(self, *args, **kwargs)
+
+    monkeypatch.setattr(cluster.RayExecutor, "_start_workers", spy)
     assert size([*base, "--out", str(tmp_path / "ray"), "--executor", "ray"]) == 0
+    assert len(started) >= 2, started  # the servo sweep and the loop's run(s), each on Ray's workers
     here, there = (json.loads((tmp_path / k / "sizing.json").read_text()) for k in ("here", "ray"))
     assert (here["chosen"], here["steer"]) == (there["chosen"], there["steer"]) and here["chosen"] is not None
     keep = ("motor", "coverage", "judged", "not_simulated", "hot_runs", "battery_over", "start_rise_median")
