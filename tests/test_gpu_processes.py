@@ -328,3 +328,37 @@ def test_a_warp_worker_started_ahead_opens_jax_beside_its_imports_and_stops_when
     here.send(None)
     proc.join(timeout=120)
     assert proc.exitcode == 0
+
+
+# -m slow (14 s on 2 cores): the size command's `--executor gpus` end to end; the sweeps' path is above
+@pytest.mark.slow
+def test_the_size_command_on_gpu_processes_gives_the_in_process_verdicts(tmp_path, monkeypatch):
+    """`python -m batchveh.size --executor gpus` with two 'GPU' names (this process and one worker process, MuJoCo
+    C) on 6 of the 60-80 kg robot's conditions, against the same command in this process: the choices, the loop's
+    table and every row of verdicts.parquet equal, and each of its sweeps (the servo's, the loop's) started the
+    executor."""
+    from pathlib import Path
+
+    from batchveh.size import main as size
+
+    root = Path(__file__).resolve().parent.parent
+    base = [str(root / "sweeps" / "delivery_robot.yaml"), "--catalogue", str(root / "notebooks" / "motors.yaml"),
+            "--limit", "6", "--quiet"]  # fmt: skip
+    assert size([*base, "--out", str(tmp_path / "here")]) == 0
+    started, start = [], gpus.GpuProcesses.start
+
+    def spy(self, *args, **kwargs):
+        started.append(args[0].name)
+        return start(self, *args, **kwargs)
+
+    monkeypatch.setattr(gpus.GpuProcesses, "start", spy)
+    monkeypatch.setenv("CUDA_VISIBLE_DEVICES", ",".join(NAMES))
+    assert size([*base, "--out", str(tmp_path / "gpus"), "--executor", "gpus"]) == 0
+    assert len(started) >= 2, started  # the servo sweep and the loop's run(s)
+    here, there = (json.loads((tmp_path / k / "sizing.json").read_text()) for k in ("here", "gpus"))
+    assert (here["chosen"], here["steer"]) == (there["chosen"], there["steer"]) and here["chosen"] is not None
+    keep = ("motor", "coverage", "judged", "not_simulated", "hot_runs", "battery_over", "start_rise_median")
+    assert [{k: r[k] for k in keep} for r in here["loop"]] == [{k: r[k] for k in keep} for r in there["loop"]]
+    pd.testing.assert_frame_equal(
+        pd.read_parquet(tmp_path / "here" / "verdicts.parquet"), pd.read_parquet(tmp_path / "gpus" / "verdicts.parquet")
+    )
