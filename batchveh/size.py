@@ -517,7 +517,7 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
 
 def verdict_line(s: Any, paths: dict[str, Path]) -> str:
     """The command's last line: the choice, its coverage, the report."""
-    from batchveh.analysis.report import steering_lost
+    from batchveh.analysis.report import battery_over, steering_lost
 
     if s.chosen is None:
         none_judged = "judged" in s.loop and len(s.loop) > 0 and not (s.loop["judged"] > 0).any()
@@ -528,7 +528,7 @@ def verdict_line(s: Any, paths: dict[str, Path]) -> str:
     lost = f", {int(row['not_simulated'])} variants not simulated" if row["not_simulated"] else ""
     steered = steering_lost(row, len(s.servo))
     lost += f", {steered} the steering lost (not counted for the drive)" if steered else ""
-    over = int(row.get("battery_over", 0))
+    over = battery_over(s)
     lost += f", {over} past the battery's energy or power (the battery's, not counted)" if over else ""
     return (
         f"chosen: {s.chosen} (gearhead {c['N']:g}:1), covers {row['coverage']:.1%} in the loop "

@@ -773,7 +773,7 @@ def in_loop(
     with did-you-mean. `battery`: a Battery (`batchveh.load_battery(path)`), or None for no energy check;
     `battery_apart`: its verdict (the run's bus energy or peak power above the battery's) is not counted against
     the drive but given apart, as the row's and the detail's `battery_over` (the size command's: the battery's
-    limits are not the motor's, and no motor of the catalogue would lift them).
+    limits are not the motor's).
 
     Returns a 3-tuple (best, table, detail): the first candidate that covers `share` of the variants
     simulated, or None; a DataFrame with one row per candidate run (motor, gear_ratio,
