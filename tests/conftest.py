@@ -3,6 +3,7 @@
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
@@ -100,3 +101,36 @@ def schema_misses(path: Path) -> dict[str, tuple[str, str]]:
             if got != want:
                 out[field.name] = (got, want)
     return out
+
+
+def size_here_and_on(tmp_path, monkeypatch, name: str, extra: list[str], spied: tuple[type, str]):
+    """The size command on 6 of the 60-80 kg robot's conditions (MuJoCo C, float64: the same rows on any executor),
+    in this process into tmp_path/here, then with `extra` (an --executor) into tmp_path/`name`, `spied` (class,
+    method) wrapped to record each sweep it starts. Asserts the two agree: the choices, the loop's table and every
+    row of verdicts.parquet. Returns (the second run's argv, the sweeps' names the spy saw)."""
+    import json
+
+    from batchveh.size import main as size
+
+    root = Path(__file__).resolve().parent.parent
+    base = [str(root / "sweeps" / "delivery_robot.yaml"), "--catalogue", str(root / "notebooks" / "motors.yaml"),
+            "--limit", "6", "--quiet"]  # fmt: skip
+    assert size([*base, "--out", str(tmp_path / "here")]) == 0
+    (owner, method), started = spied, []
+    real = getattr(owner, method)
+
+    def spy(self, *args, **kwargs):
+        started.append(args[0].name)
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(owner, method, spy)
+    argv = [*base, "--out", str(tmp_path / name), *extra]
+    assert size(argv) == 0
+    here, there = (json.loads((tmp_path / k / "sizing.json").read_text()) for k in ("here", name))
+    assert (here["chosen"], here["steer"]) == (there["chosen"], there["steer"]) and here["chosen"] is not None
+    keep = ("motor", "coverage", "judged", "not_simulated", "hot_runs", "battery_over", "start_rise_median")
+    assert [{k: r[k] for k in keep} for r in here["loop"]] == [{k: r[k] for k in keep} for r in there["loop"]]
+    pd.testing.assert_frame_equal(
+        pd.read_parquet(tmp_path / "here" / "verdicts.parquet"), pd.read_parquet(tmp_path / name / "verdicts.parquet")
+    )
+    return argv, started

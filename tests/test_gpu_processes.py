@@ -17,6 +17,7 @@ from collections import Counter
 
 import pandas as pd
 import pytest
+from conftest import size_here_and_on
 from conftest import sweep_spec as _spec
 
 import batchveh
@@ -337,28 +338,6 @@ def test_the_size_command_on_gpu_processes_gives_the_in_process_verdicts(tmp_pat
     C) on 6 of the 60-80 kg robot's conditions, against the same command in this process: the choices, the loop's
     table and every row of verdicts.parquet equal, and each of its sweeps (the servo's, the loop's) started the
     executor."""
-    from pathlib import Path
-
-    from batchveh.size import main as size
-
-    root = Path(__file__).resolve().parent.parent
-    base = [str(root / "sweeps" / "delivery_robot.yaml"), "--catalogue", str(root / "notebooks" / "motors.yaml"),
-            "--limit", "6", "--quiet"]  # fmt: skip
-    assert size([*base, "--out", str(tmp_path / "here")]) == 0
-    started, start = [], gpus.GpuProcesses.start
-
-    def spy(self, *args, **kwargs):
-        started.append(args[0].name)
-        return start(self, *args, **kwargs)
-
-    monkeypatch.setattr(gpus.GpuProcesses, "start", spy)
     monkeypatch.setenv("CUDA_VISIBLE_DEVICES", ",".join(NAMES))
-    assert size([*base, "--out", str(tmp_path / "gpus"), "--executor", "gpus"]) == 0
+    _, started = size_here_and_on(tmp_path, monkeypatch, "gpus", ["--executor", "gpus"], (gpus.GpuProcesses, "start"))
     assert len(started) >= 2, started  # the servo sweep and the loop's run(s)
-    here, there = (json.loads((tmp_path / k / "sizing.json").read_text()) for k in ("here", "gpus"))
-    assert (here["chosen"], here["steer"]) == (there["chosen"], there["steer"]) and here["chosen"] is not None
-    keep = ("motor", "coverage", "judged", "not_simulated", "hot_runs", "battery_over", "start_rise_median")
-    assert [{k: r[k] for k in keep} for r in here["loop"]] == [{k: r[k] for k in keep} for r in there["loop"]]
-    pd.testing.assert_frame_equal(
-        pd.read_parquet(tmp_path / "here" / "verdicts.parquet"), pd.read_parquet(tmp_path / "gpus" / "verdicts.parquet")
-    )

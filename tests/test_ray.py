@@ -21,6 +21,7 @@ from collections import Counter
 import pandas as pd
 import pytest
 import ray
+from conftest import size_here_and_on
 from conftest import sweep_spec as _spec
 
 import batchveh
@@ -315,32 +316,12 @@ def test_the_size_command_on_ray_gives_the_in_process_verdicts(tmp_path, local_r
     """`python -m batchveh.size --executor ray` on 6 of the 60-80 kg robot's conditions (MuJoCo C, float64: the
     same rows on any executor) against the same command in this process: every row of verdicts.parquet, the
     choices and the loop's table equal; a second run resumes every sweep (no chunk run again)."""
-    import json
-    from pathlib import Path
-
     from batchveh.size import main as size
 
-    root = Path(__file__).resolve().parent.parent
-    base = [str(root / "sweeps" / "delivery_robot.yaml"), "--catalogue", str(root / "notebooks" / "motors.yaml"),
-            "--limit", "6", "--quiet"]  # fmt: skip
-    assert size([*base, "--out", str(tmp_path / "here")]) == 0
-    started, start = [], cluster.RayExecutor._start_workers
-
-    def spy(self, *args, **kwargs):  # each sweep whose chunks Ray's workers run
-        started.append(args[0].name)
-        return start(self, *args, **kwargs)
-
-    monkeypatch.setattr(cluster.RayExecutor, "_start_workers", spy)
-    assert size([*base, "--out", str(tmp_path / "ray"), "--executor", "ray"]) == 0
+    argv, started = size_here_and_on(tmp_path, monkeypatch, "ray", ["--executor", "ray"],
+                                     (cluster.RayExecutor, "_start_workers"))  # fmt: skip
     assert len(started) >= 2, started  # the servo sweep and the loop's run(s), each on Ray's workers
-    here, there = (json.loads((tmp_path / k / "sizing.json").read_text()) for k in ("here", "ray"))
-    assert (here["chosen"], here["steer"]) == (there["chosen"], there["steer"]) and here["chosen"] is not None
-    keep = ("motor", "coverage", "judged", "not_simulated", "hot_runs", "battery_over", "start_rise_median")
-    assert [{k: r[k] for k in keep} for r in here["loop"]] == [{k: r[k] for k in keep} for r in there["loop"]]
-    pd.testing.assert_frame_equal(
-        pd.read_parquet(tmp_path / "here" / "verdicts.parquet"), pd.read_parquet(tmp_path / "ray" / "verdicts.parquet")
-    )
     parts = {p: p.stat().st_mtime_ns for p in (tmp_path / "ray").rglob("part-*.parquet")}
     assert parts  # the servo sweep's and the loop's chunks, written by Ray's workers
-    assert size([*base, "--out", str(tmp_path / "ray"), "--executor", "ray", "--overwrite"]) == 0
+    assert size([*argv, "--overwrite"]) == 0
     assert {p: p.stat().st_mtime_ns for p in (tmp_path / "ray").rglob("part-*.parquet")} == parts
