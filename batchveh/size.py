@@ -368,6 +368,9 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
 
     spec = load_spec(args.spec)
     cat = catalogue_of(args.catalogue)
+    # the battery's energy and power are checked in the loop, apart (its limits are not a motor's); a bad
+    # `battery:` section is one line here, before any simulation
+    battery = battery_of(args.catalogue)
     catalogue = str(Path(args.catalogue).resolve())  # the runs read it, on Ray's workers too: a path from anywhere
     if args.steer is not None:
         pick(cat, args.steer, "--steer")
@@ -426,8 +429,6 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
     looped = resolve_backend(args.backend or spec.backend)
     looped = "mujoco" if looped == "mjx" else looped  # MJX's JAX implementation has no dcmotor: MuJoCo C runs it
     runner = sweep_runner(out / "loop", catalogue, looped, executor)
-    # the battery's energy and power are checked in the loop, apart: its limits are not a motor's
-    battery = battery_of(args.catalogue)
     t0 = time.perf_counter()
     pending = list(runs)
     while pending and chosen is None:  # the drives smallest first, a batch at a time (`batch_of`)
