@@ -328,6 +328,11 @@ def test_the_loaders_refuse_in_one_line(tmp_path):
         batchveh.load_catalogue(p)
     with pytest.raises(ConfigError, match="battery: missing"):
         batchveh.load_battery(p)
+    # a misspelt field is named, never replaced by Battery's default (10 A h)
+    p.write_text("battery: {nominal_voltage: 48, capacty: 20, internal_resistance: 0.3, "
+                 "max_continuous_discharge_current: 20}\n")  # fmt: skip
+    with pytest.raises(ConfigError, match=r"battery: capacity: missing \(did you mean 'capacty'\?\)"):
+        batchveh.load_battery(p)
 
 
 def test_in_loop_reads_a_spec_path_and_refuses_a_bad_name_in_one_line(tmp_path):

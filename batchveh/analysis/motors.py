@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from batchveh.config import ConfigError, field, from_mapping, load_yaml
+from batchveh.config import ConfigError, did_you_mean, field, from_mapping, load_yaml
 from batchveh.stepping.motor_stats import SHORT_SHARE  # a window's mean speed this far below the imposed: short
 
 WHEELS = ("drive_lf", "drive_rf", "drive_lr", "drive_rr")
@@ -519,13 +519,17 @@ class Battery:
 
 def load_battery(path: str | Path) -> Battery:
     """The `battery:` section of a catalogue YAML (notebooks/motors.yaml) as a Battery (its nominal_voltage,
-    capacity, internal_resistance and max_continuous_discharge_current; energy_wh and max_power derived);
-    other keys of the section are ignored, and a missing section is one ConfigError line."""
+    capacity, internal_resistance and max_continuous_discharge_current, each required; energy_wh and max_power
+    derived); other keys of the section are ignored, and a missing section or field is one ConfigError line."""
     data = load_yaml(path)
     raw = data.get("battery") if isinstance(data, dict) else None
     if not isinstance(raw, dict):
         raise ConfigError(f"{path}: battery: missing; allowed: a mapping of Battery's fields")
     keep = {k: v for k, v in raw.items() if k in Battery.__dataclass_fields__}
+    for need in ("nominal_voltage", "capacity", "internal_resistance", "max_continuous_discharge_current"):
+        if need not in keep:  # never a default in its place: a misspelt key would size against another battery
+            other = [k for k in raw if k not in Battery.__dataclass_fields__]
+            raise ConfigError(f"{path}: battery: {need}: missing{did_you_mean(need, other)}; allowed: a number")
     return from_mapping(Battery, keep, f"{path}: battery")
 
 
