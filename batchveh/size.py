@@ -21,7 +21,7 @@ Three phases, one progress bar:
    run, RMS, heat, gearhead), the next larger steering motor runs with the same drive. A steering miss is never
    counted against a drive.
 It ends with one line: the chosen motor and gearhead, its coverage, and where the report is (OUT/report.html,
-report.md, figures/, verdicts.parquet: batchveh/analysis/report.py).
+report.md, figures/, verdicts.parquet: batchveh/sizing/report.py).
 
 Exit codes: 0 done (a motor chosen, or none covers: the report says why), 2 bad spec, catalogue, argument or file
 (one line), 3 a report exists in OUT (give --overwrite), 130 interrupted.
@@ -359,9 +359,10 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
     from tqdm.auto import tqdm
 
     import batchveh
-    from batchveh.analysis import report
     from batchveh.analysis.motors import IN_LOOP_REASONS, STEER_REASONS, best_in_loop, in_loop, screen
     from batchveh.model.motors import pick
+    from batchveh.sizing import report
+    from batchveh.sizing.windows import best_of, loop_table, windows, with_entry
     from batchveh.sweep import count_variants, run_sweep
     from batchveh.sweeping.results import load
     from batchveh.sweeping.spec import load_spec
@@ -417,8 +418,15 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
         allowed = ", ".join(["mission", *mission_segments(df)]) if "mission_drive_lf_rms" in df else "none"
         raise ConfigError(f"--span: {span!r} is not a span of {args.spec}'s results; allowed: {allowed}")
     common = {"share": args.share, "params": params, "duty": spec.duty, "span": span}
-    best, table, _ = screen(df, cat, armature=armature, accel=accel, ramp=ramp, **common)
-    _, steer_table, _ = screen(df, cat, group="steer", **common)
+    # every (motor, ratio) of the catalogue, then each motor's window; the loop walks one ratio a motor
+    _, ratios, _ = screen(df, cat, armature=armature, accel=accel, ramp=ramp, **common)
+    wins = windows(ratios, cat, args.share)
+    table, best = loop_table(ratios, wins), best_of(wins)
+    _, steer_ratios, _ = screen(df, cat, group="steer", **common)
+    steer_wins = windows(steer_ratios, cat, args.share)
+    steer_table = loop_table(steer_ratios, steer_wins)
+    if args.steer is not None:  # the (motor, ratio) given stands for its motor
+        steer_table = with_entry(steer_table, steer_ratios, args.steer, cat)
     steer = args.steer or steering(steer_table, args.share)
     walls["screen"] = time.perf_counter() - t0
     runs = candidates(table, best, args.share)
@@ -457,8 +465,10 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
         _, one, _ = screen(
             df, {name: cat[name]}, armature=armature, accel=accel, ramp=ramp, judged=run["judged"], **common
         )
-        table = pd.concat([table[table["motor"] != name], one]).sort_values("continuous_torque_at_wheel")
-    table = table.reset_index(drop=True)
+        table = pd.concat([table[table["motor"] != name], one])
+    order = {name: i for i, name in enumerate(wins["chosen"])}  # the windows' order: smallest motor first
+    table = table.assign(_o=[order.get(m, len(order)) for m in table["motor"]]).sort_values("_o", kind="stable")
+    table = table.drop(columns="_o").reset_index(drop=True)
 
     loop = pd.concat(rows, ignore_index=True)
     hottest = chosen or best_in_loop(loop)
@@ -480,6 +490,7 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
     t0 = time.perf_counter()
     series = trace(spec, args.catalogue, hottest, steer, values, rise)
     walls["trace"] = time.perf_counter() - t0
+    needs = requirement_sheets(df, spec, span, args.share, cat, chosen or hottest, steer, wins)
     s = report.Sizing(
         name=spec.name,
         spec_text=Path(args.spec).read_text(),
@@ -497,6 +508,11 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
         duty=spec.duty,
         span=span,
         steer_given=args.steer is not None,
+        ratios=ratios,
+        windows=wins,
+        steer_ratios=steer_ratios,
+        steer_windows=steer_wins,
+        requirements=needs,
         catalogue=cat,
         battery=battery,
         trace=series,
@@ -516,14 +532,42 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
     return s, paths
 
 
+def requirement_sheets(
+    df: Any, spec: Any, span: str | None, share: float, cat: dict, drive: str, steer: str, wins: Any
+) -> dict[str, Any]:
+    """The requirement sheet (`sizing.requirements`): the drive's at the wheel and at the shaft of `drive`, the
+    steering's at the hinge and at the shaft of `steer`; with each motor's shortfall against the drive's sheet at
+    the ratio its window chose (`would`: {motor: line}) and the (motor, ratio) nearest to covering."""
+    from batchveh.sizing import requirements
+
+    params = list(spec.params)
+    out = {
+        "drive": requirements.sheet(df, "drive", span, spec.duty, share, params, cat[drive]),
+        "steer": requirements.sheet(df, "steer", span, spec.duty, share, params, cat[steer]),
+    }
+    wheel = out["drive"]["at_wheel"]
+    out["would"] = {row["motor_name"]: requirements.short_line(cat[row["chosen"]], wheel) for _, row in wins.iterrows()}
+    near = wins.sort_values("chosen_coverage", ascending=False, kind="stable").iloc[0]
+    out["nearest"] = {"motor": near["chosen"], "ratio": near["chosen_ratio"], "coverage": near["chosen_coverage"],
+                      "binding": near["binding"] or near["closed_below"]}  # fmt: skip
+    return out
+
+
 def verdict_line(s: Any, paths: dict[str, Path]) -> str:
     """The command's last line: the choice, its coverage, the report."""
-    from batchveh.analysis.report import battery_over, steering_lost
+    from batchveh.sizing.report import battery_over, steering_lost
 
     if s.chosen is None:
         none_judged = "judged" in s.loop and len(s.loop) > 0 and not (s.loop["judged"] > 0).any()
         why = f"; no drive could be judged: the steering ({s.steer}) lost every run" if none_judged else ""
-        return f"no motor of the catalogue covers {s.share:.0%} in the loop{why}; report: {paths['html']}"
+        near = s.requirements["nearest"] if s.requirements else None
+        would = (
+            f"; nearest: {near['motor']} ({near['coverage']:.1%} on the screen, {near['binding']} binds); a motor "
+            f"must give {_sheet_brief(s)}"
+            if near
+            else ""
+        )
+        return f"no motor of the catalogue covers {s.share:.0%} in the loop{why}{would}; report: {paths['html']}"
     row = s.loop.set_index("motor").loc[s.chosen]
     c = s.catalogue[s.chosen].resolved()
     lost = f", {int(row['not_simulated'])} variants not simulated" if row["not_simulated"] else ""
@@ -535,6 +579,15 @@ def verdict_line(s: Any, paths: dict[str, Path]) -> str:
         f"chosen: {s.chosen} (gearhead {c['N']:g}:1), covers {row['coverage']:.1%} in the loop "
         f"(screen {float(s.screen.set_index('motor').loc[s.chosen, 'coverage']):.1%}){lost}; steering {s.steer}; "
         f"report: {paths['html']}"
+    )
+
+
+def _sheet_brief(s: Any) -> str:
+    """The drive's sheet at the wheel in a few words: RMS, peak and top speed."""
+    w = s.requirements["drive"]["at_wheel"]
+    return (
+        f"{w['rms_torque']['value']:.3g} N m RMS, {w['peak_torque']['value']:.3g} N m peak, "
+        f"{w['top_speed']['value']:.3g} rad/s at the wheel (the report's requirement sheet)"
     )
 
 
@@ -551,10 +604,12 @@ def dry_run(args: Any) -> str:
     seconds, basis = estimate(backend, n * spec.scenario.n_steps, spec.vehicle.tyre.model, 0, n)
     per = loop_runs(spec)
     loop = seconds * per
+    motors = len({m.motor_name for m in cat.values()})
     return (
-        f"{spec.name}: the servo sweep, {n:,} variants ({seconds:.0f} s, {basis}); the screen of {len(cat)} motors; "
-        f"then each candidate in the loop, {per} run{'s' * (per > 1)}, about {loop:.0f} s (two to all {len(cat)}: "
-        f"{2 * loop:.0f}-{len(cat) * loop:.0f} s); report in {args.out or f'{spec.output}-sizing'}"
+        f"{spec.name}: the servo sweep, {n:,} variants ({seconds:.0f} s, {basis}); the screen of {len(cat)} (motor, "
+        f"ratio) pairs of {motors} motors; then one ratio a motor in the loop, {per} run{'s' * (per > 1)}, about "
+        f"{loop:.0f} s each (two to all {motors}: {2 * loop:.0f}-{motors * loop:.0f} s); report in "
+        f"{args.out or f'{spec.output}-sizing'}"
     )
 
 

@@ -20,6 +20,7 @@ LAYERS = {
         f"model.{m}"
         for m in (
             "",
+            "gearheads",
             "motors",
             "drive",
             "vehicle",
@@ -47,7 +48,9 @@ LAYERS = {
     "sweeping": tuple(
         f"sweeping.{m}" for m in ("", "storage", "spec", "results", "prestart", "chunks", "cluster", "gpus")
     ),
-    "analysis": tuple(f"analysis.{m}" for m in ("", "motors", "plot", "sensitivity", "report")),
+    "analysis": tuple(f"analysis.{m}" for m in ("", "motors", "plot", "sensitivity")),
+    # sizing a motor and its gear ratio from a servo sweep: the windows, the requirement sheet
+    "sizing": tuple(f"sizing.{m}" for m in ("", "windows", "requirements", "figures", "report")),
     "face": ("",),  # batchveh/__init__.py: the public names
     "cli": ("sweep", "run", "render", "sensitivity", "size"),
 }

@@ -60,7 +60,8 @@ def test_the_command_chooses_and_writes_its_report(sized, capsys):
     parser = _Balanced()
     parser.feed(html)
     assert parser.errors == [] and parser.stack == [], (parser.errors, parser.stack)
-    assert len(parser.images) == 3  # the torque-speed plane, the misses, the hottest variant
+    # the torque-speed plane, the misses, the hottest variant, coverage against ratio (drive, steering)
+    assert len(parser.images) == 5
     for src in parser.images:
         assert (out / src).is_file() and (out / src).stat().st_size > 10_000, src
     md = (out / "report.md").read_text()
@@ -88,6 +89,7 @@ def test_the_choice_is_what_screen_and_in_loop_give_by_hand(sized):
     from batchveh.analysis.motors import in_loop, screen
     from batchveh.model.motors import load_catalogue
     from batchveh.size import ramp_of, wheel_accel
+    from batchveh.sizing.windows import best_of, loop_table, windows
 
     out, _, _ = sized
     summary = json.loads((out / "sizing.json").read_text())
@@ -95,8 +97,11 @@ def test_the_choice_is_what_screen_and_in_loop_give_by_hand(sized):
     df = batchveh.load(out / "servo")
     cat = load_catalogue(CATALOGUE)
     arm, accel, ramp = spec.vehicle.motors.armature, wheel_accel(spec, df), ramp_of(spec, df)
-    best, table, _ = screen(df, cat, share=0.99, armature=arm, accel=accel, duty=spec.duty, ramp=ramp)
+    _, ratios, _ = screen(df, cat, share=0.99, armature=arm, accel=accel, duty=spec.duty, ramp=ramp)
+    wins = windows(ratios, cat, 0.99)  # each motor's ratio window; the loop walks one ratio a motor
+    table, best = loop_table(ratios, wins), best_of(wins)
     assert [r["coverage"] for r in summary["screen"]] == list(table["coverage"])
+    assert [r["chosen"] for r in summary["windows"]] == list(table["motor"])
     chosen = None
     for name in candidates(table, best):
         got, _, _ = in_loop(spec, df, CATALOGUE, [name], steer=summary["steer"], share=0.99)
@@ -151,8 +156,15 @@ def test_a_span_a_straight_line_has_not_is_one_line(sized, capsys):
 def test_the_dry_run_estimates_every_phase(capsys):
     assert main([str(SPEC), "--catalogue", str(CATALOGUE), "--dry-run"]) == EXIT_OK
     line = capsys.readouterr().out.strip()
-    # notebooks/motors.yaml holds nine entries
-    assert "400 variants" in line and "the screen of 9 motors" in line and "in the loop" in line
+    # notebooks/motors.yaml by hand: its paired entries, and each motor's series' ratios once per motor
+    raw = yaml.safe_load(CATALOGUE.read_text())
+    ratios = {s["name"]: len(s["ratios"]) for s in raw["gearhead_series"]}
+    motors = {m.get("motor", m["name"]): set(m.get("series", [])) for m in raw["motors"]}
+    for m in raw["motors"]:
+        motors[m.get("motor", m["name"])] |= set(m.get("series", []))
+    pairs = len(raw["motors"]) + sum(ratios[s] for series in motors.values() for s in series)
+    assert "400 variants" in line and f"the screen of {pairs} (motor, ratio) pairs of {len(motors)} motors" in line
+    assert "in the loop" in line
 
 
 def test_the_loop_starts_below_the_screens_choice():
@@ -347,3 +359,41 @@ def test_the_battery_is_judged_apart_never_against_a_drive(sized, tmp_path, caps
     assert schema_misses(out / "verdicts.parquet") == {}
     md = (out / "report.md").read_text()
     assert "## The battery" in md and f"is passed in {expected} of them" in md
+
+
+def test_the_requirement_sheet_is_the_servo_sweeps_by_hand(sized):
+    """sizing.json's requirement sheet against the servo sweep's Parquet, computed here with numpy's inverted-CDF
+    percentile (nearest rank) on the worst of the four wheels: the RMS at the duty, the window's low-pass peak,
+    the top speed, the peak mechanical power; at the chosen motor's shaft, torque / (eta N) and speed x N. Each
+    figure's variant is a row whose own value is the figure."""
+    import batchveh
+    from batchveh.model.motors import load_catalogue
+
+    out, _, _ = sized
+    summary = json.loads((out / "sizing.json").read_text())
+    df = batchveh.load(out / "servo")
+    duty = summary["duty"]
+    wheels = ("lf", "rf", "lr", "rr")
+
+    def worst(stat):
+        return df[[f"drive_{w}_{stat}" for w in wheels]].abs().max(axis=1).to_numpy()
+
+    by_hand = {
+        "rms_torque": np.sqrt(duty) * worst("rms"),
+        "peak_torque": worst("peak_lp"),
+        "top_speed": df["wheel_speed"].abs().to_numpy(),
+        "peak_power": worst("power_peak"),
+    }
+    sheet = summary["requirements"]["drive"]
+    motor = load_catalogue(CATALOGUE)[summary["chosen"]]
+    for key, values in by_hand.items():
+        fig = sheet["at_wheel"][key]
+        expect = np.percentile(values, 99, method="inverted_cdf")
+        assert fig["value"] == pytest.approx(expect, rel=1e-9), key
+        assert values[fig["row"]] == pytest.approx(expect, rel=1e-12), key
+        assert fig["variant"] == {p: pytest.approx(df[p].iloc[fig["row"]]) for p in fig["variant"]}
+    shaft = sheet["at_shaft"]
+    assert shaft["motor"] == summary["chosen"]
+    scale = motor.gear_efficiency * motor.gear_ratio
+    assert shaft["rms_torque"]["value"] == pytest.approx(sheet["at_wheel"]["rms_torque"]["value"] / scale)
+    assert shaft["top_speed"]["value"] == pytest.approx(sheet["at_wheel"]["top_speed"]["value"] * motor.gear_ratio)

@@ -9,7 +9,7 @@ The vehicles (sweeps/):
 - delivery_robot_friction: sweeps/delivery_robot.yaml (wheels 0.05 m outboard of the axes) with friction 0.4-0.9
   swept too (the spec is written into --out);
 - robot_30kg, warehouse_agv (180-300 kg), seed_sizing (the seed's vehicle, 300 LHS of benchmarks/slope_100k.yaml's
-  ranges), rover_1t;
+  ranges), rover_1t, cart_110kg (issue 61's rear-heavy cart on 0.22 m wheels);
 - and with `--only mission robot_mission robot_mission_share95 agv_mission --json
   validation/results/sizing_missions.json`, issue 54's duty cycles (sweeps/mission.yaml, sweeps/robot_mission.yaml,
   the same at --share 0.95, sweeps/agv_mission.yaml).
@@ -38,11 +38,14 @@ import pandas as pd
 import yaml
 
 from batchveh.analysis.motors import best_in_loop
+from batchveh.sizing.windows import window_text
 
 ROOT = Path(__file__).resolve().parent.parent
 CATALOGUE = ROOT / "notebooks" / "motors.yaml"
 JSON = ROOT / "validation" / "results" / "sizing_vehicles.json"
-VEHICLES = ("sidewalk_robot", "delivery_robot_friction", "robot_30kg", "warehouse_agv", "seed_sizing", "rover_1t")
+VEHICLES = (
+    "sidewalk_robot", "delivery_robot_friction", "robot_30kg", "warehouse_agv", "seed_sizing", "rover_1t", "cart_110kg",
+)  # fmt: skip
 MISSIONS = ("mission", "robot_mission", "robot_mission_share95", "agv_mission")  # issue 54's duty cycles: --only
 # them --json ...missions.json
 SHARES = {"robot_mission_share95": ("robot_mission", 0.95)}  # a name for a spec sized at another --share
@@ -113,6 +116,14 @@ def size(name: str, out: Path) -> dict:
             "steer_at_current_share_max": float(v["steer_at_current_share"].max()),
         },
         "wall_phases_s": summary["wall_s"],
+        # issue 61: each motor's ratio window, the requirement sheet at the wheel, each motor against it
+        "windows": {w["motor_name"]: window_text(w) for w in summary.get("windows") or []},
+        "sheet_at_wheel": {k: round(f["value"], 4) for k, f in summary["requirements"]["drive"]["at_wheel"].items()},
+        "steer_sheet_at_hinge": {
+            k: round(f["value"], 4) for k, f in summary["requirements"]["steer"]["at_wheel"].items()
+        },
+        "against_the_sheet": summary["requirements"]["would"],
+        "nearest": summary["requirements"]["nearest"],
     }
 
 

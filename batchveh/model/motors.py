@@ -75,6 +75,20 @@ class DCMotor:
     gear_max_intermittent_torque: float | None = None  # N m at the gearhead's output
     gear_max_input_speed: float | None = None  # rad/s at the gearhead's input (the motor)
     bus_voltage: float | None = None  # V, the driver's supply (default: nominal_voltage)
+    motor: str = ""  # the physical motor (entries sharing it are one motor at several ratios); "" = name
+    series: str = ""  # the gearhead series this entry's ratio comes from (model/gearheads.py); "" = a pairing
+
+    @property
+    def motor_name(self) -> str:
+        """The physical motor's name: entries of one motor at several ratios share it."""
+        return self.motor or self.name
+
+    @property
+    def shaft_continuous_torque(self) -> float:
+        """The motor's continuous torque at its shaft, K i_max (N m): the size measure the sizing ranks motors by
+        (nan without a current limit)."""
+        c = self.resolved()
+        return c["K"] * c["i_max"] if c["i_max"] > 0 else math.nan
 
     def resolved(self, where: str = "motor") -> dict[str, float]:
         """K, R, V (the bus), i_max, R_T, C, t_T, N and the rotor inertia; one ConfigError line for
@@ -82,7 +96,11 @@ class DCMotor:
         w = f"{where} {self.name}"
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.name != "name" and value is not None and not (isinstance(value, int | float) and math.isfinite(value)):
+            if (
+                f.name not in ("name", "motor", "series")
+                and value is not None
+                and not (isinstance(value, int | float) and math.isfinite(value))
+            ):
                 raise ConfigError(f"{w}: {f.name}: {value!r} is not a number; allowed: a finite number")
         for key in (
             "nominal_voltage",
@@ -197,12 +215,19 @@ def dcmotor_xml(name: str, joint: str, motor: DCMotor, *, rotor: bool = True, th
 def load_catalogue(path: str | Path) -> dict[str, DCMotor]:
     """The motors of a catalogue YAML (notebooks/motors.yaml's format: a list under `motors:`, each a mapping of
     DCMotor's fields, the gearhead nested under `gearhead:` with `ratio`, `efficiency` and its ratings): a dict
-    {name: DCMotor}, in the file's order. A bad entry is one ConfigError line naming the file, entry and key."""
+    {name: DCMotor}, in the file's order, then every (motor, ratio) its `series:` allow (model/gearheads.py), in
+    the series' order. A bad entry is one ConfigError line naming the file, entry and key."""
+    from batchveh.model.gearheads import allowed, combination, load_series, number
+
     data = load_yaml(path)
-    known = {f.name for f in fields(DCMotor)}
+    series = load_series(data.get("gearhead_series"), str(path))
+    known = {f.name for f in fields(DCMotor)} - {"series"}
     out: dict[str, DCMotor] = {}
+    combos: list[DCMotor] = []
     for i, raw in enumerate(data.get("motors") or []):
         where = f"{path}: motors[{i}]"
+        if not isinstance(raw, dict):
+            raise ConfigError(f"{where}: {raw!r} is not a mapping; allowed: a motor's datasheet values")
         entry: dict[str, Any] = {k: v for k, v in raw.items() if k in known}
         gear = raw.get("gearhead") or {}
         for key, to in (
@@ -213,12 +238,19 @@ def load_catalogue(path: str | Path) -> dict[str, DCMotor]:
             ("max_input_speed", "gear_max_input_speed"),
         ):
             if gear.get(key) is not None:
-                entry[to] = float(gear[key])
+                entry[to] = number(gear[key], f"{where}: gearhead: {key}")
         if "name" not in entry:
             raise ConfigError(f"{where}: name: missing; allowed: a unique name")
         motor = DCMotor(**entry)
         motor.resolved(where)
-        out[motor.name] = motor
+        if raw.get("gearhead") or not raw.get("series"):  # a motor with series and no gearhead: its ratios only
+            out[motor.name] = motor
+        pairs = allowed(raw.get("series"), series, f"{where} ({motor.name})")
+        combos += [combination(motor, s, r) for s, r in pairs]
+    for motor in combos:  # a pairing written out under the same name stays as written
+        if motor.name not in out:
+            motor.resolved(f"{path}: {motor.name}")
+            out[motor.name] = motor
     return out
 
 

@@ -38,6 +38,8 @@ from batchveh.analysis.motors import (
     bound_at_wheel,
     not_simulated,
 )
+from batchveh.sizing.figures import coverage_by_ratio, sheet_points
+from batchveh.sizing.windows import LIMIT_TEXT, window_text
 
 FIGURES = "figures"
 
@@ -69,6 +71,11 @@ class Sizing:
     worst_note: str = ""  # whether the motor covers the hottest variant, and why not
     span: str | None = None  # the span the screen read: None the steady window, 'mission' the whole cycle
     steer_given: bool = False  # the steering motor named with --steer (never walked up)
+    ratios: pd.DataFrame | None = None  # the drive's screen of every (motor, ratio) of the catalogue
+    windows: pd.DataFrame | None = None  # each drive motor's ratio window (sizing.windows)
+    steer_ratios: pd.DataFrame | None = None  # the steering's screen of every (motor, ratio)
+    steer_windows: pd.DataFrame | None = None  # each steering motor's ratio window
+    requirements: dict[str, Any] | None = None  # the requirement sheets (size.requirement_sheets)
 
 
 def focus(s: Sizing) -> str | None:
@@ -402,7 +409,17 @@ def figures(folder: Path, s: Sizing) -> dict[str, str]:
         fig, axes = plt.subplots(1, len(shown), figsize=(5.5 * len(shown), 4.2), squeeze=False)
         for ax, name in zip(axes[0], shown, strict=True):
             torque_speed(ax, s, name)
+            if s.requirements and name == focus(s):  # the sheet's points on the motor that covers (or comes nearest)
+                sheet_points(ax, s.requirements["drive"], s.servo["wheel_speed"].to_numpy(float))
+                ax.legend(fontsize=6, loc="upper right")
         out["The torque-speed plane at the wheel"] = _save(fig, folder, "torque_speed.png")
+    for what, ratios, wins in (("drive", s.ratios, s.windows), ("steering", s.steer_ratios, s.steer_windows)):
+        if ratios is None or wins is None or not len(wins):
+            continue
+        rows = -(-len(wins) // 4)
+        fig = plt.figure(figsize=(15, 3.4 * rows))
+        coverage_by_ratio(fig, ratios, wins, s.catalogue, s.share, what)
+        out[f"Coverage against gear ratio: {what}"] = _save(fig, folder, f"ratios_{what}.png")
     looped = [m for m in shown if m in s.detail]
     if looped:
         fig, axes = plt.subplots(1, len(looped), figsize=(5.5 * len(looped), 4.2), squeeze=False)
@@ -589,6 +606,7 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
             "checks every motor against the ideal servo's demand; the loop runs the candidates, smallest first, as "
             "DC motors driven by batchveh's drive, from the hot steady state of back-to-back runs.",
         ),
+        *ratio_sections(s),
         ("Verdict: the drive motors", "table", verdict_table(s)),
         ("", "text", f"Screen misses: {screen}. Loop misses: {reasons}. Not simulated: a run that diverged or failed "
                      "its own physics checks with its steering held; it says nothing of the motor and is never "
@@ -619,6 +637,89 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
     out.append(("Inputs", "code", s.spec_text))
     meta = {**s.versions, **{f"wall {k} (s)": f"{v:.1f}" for k, v in s.wall_s.items()}}
     out.append(("", "text", "; ".join(f"{k}: {v}" for k, v in meta.items())))
+    return out
+
+
+def window_table(wins: pd.DataFrame | None) -> pd.DataFrame:
+    """One row per motor: its continuous torque at the shaft, the ratios offered, its window and the limits that
+    close it, the ratio to buy and its screen coverage."""
+    if wins is None:
+        return pd.DataFrame()
+    return pd.DataFrame(
+        {
+            "motor": wins["motor_name"],
+            "K i_max at the shaft (N m)": wins["shaft_continuous_torque"].round(4),
+            "ratios offered": [
+                f"{r['ratios_offered']} ({r['ratio_min']:g}-{r['ratio_max']:g}:1)" for _, r in wins.iterrows()
+            ],
+            "window": [window_text(r) for _, r in wins.iterrows()],
+            "ratio to buy": [f"{r:.4g}:1" for r in wins["chosen_ratio"]],
+            "screen": [f"{c:.1%}" for c in wins["chosen_coverage"]],
+        }
+    )
+
+
+def sheet_table(sheet: dict[str, Any], params: list[str]) -> pd.DataFrame:
+    """A requirement sheet as a table: each figure at the wheel (hinge) and at the motor's shaft, and the
+    variant that sets it."""
+    shaft = sheet.get("at_shaft", {})
+    rows = []
+    for key, fig in sheet["at_wheel"].items():
+        variant = ", ".join(f"{k} {_short(v)}" for k, v in fig["variant"].items()) or "-"
+        at = shaft.get(key, {}).get("value", float("nan"))
+        rows.append({"figure": SHEET_TEXT.get(key, key), "unit": fig["unit"], "at the wheel": _short(fig["value"]),
+                     "at the shaft": _short(at), "set by the variant": variant})  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+SHEET_TEXT = {
+    "rms_torque": "RMS torque at the duty",
+    "peak_torque": "peak torque (low-pass; a straight line's at speed)",
+    "accel_peak_torque": "peak torque with the speed ramp",
+    "top_speed": "top speed",
+    "torque_at_top_speed": "torque at top speed (within 10%)",
+    "continuous_power": "continuous power (RMS torque x speed)",
+    "peak_power": "peak mechanical power",
+}
+
+
+def _short(x: Any) -> str:
+    return f"{x:.4g}" if isinstance(x, float) else str(x)
+
+
+def ratio_sections(s: Sizing) -> list[tuple[str, str, Any]]:
+    """The windows, the requirement sheets and, where no motor covers, what would."""
+    if s.windows is None or s.requirements is None:
+        return []
+    req = s.requirements
+    drive, steer = req["drive"], req["steer"]
+    shaft = drive.get("at_shaft", {})
+    out: list[tuple[str, str, Any]] = [
+        ("Ratio windows: the drive motors", "table", window_table(s.windows)),
+        ("", "text", "Every ratio of each motor's gearhead series is screened (no new simulation). The window: the "
+                     f"ratios whose screen coverage reaches {s.share:.0%}; below it the motor's torque per amp falls "
+                     "short (current, heat, its bound, the gearhead's torque), above it its speed does (the voltage "
+                     "line, the no-load speed, the gearhead's input speed). Motors rank by their continuous torque at "
+                     "the shaft, K i_max; the ratio to buy is the offered ratio nearest the window's geometric "
+                     "centre (an end the series closes, not a limit, counts at 2x the other end)."),
+        ("Ratio windows: the steering motors", "table", window_table(s.steer_windows)),
+        (f"Requirement sheet: the drive ({drive['span']}, {s.share:.0%} of the variants)", "table",
+         sheet_table(drive, s.params)),
+        ("", "text", f"At the shaft of {shaft.get('motor', '-')} ({shaft.get('ratio', float('nan')):g}:1, efficiency "
+                     f"{shaft.get('efficiency', float('nan')):g}): torque / (eta N), speed x N, power / eta. Each "
+                     f"figure is the value {s.share:.0%} of the variants need at most (nearest rank), on the worst "
+                     "of the four wheels, and names the variant that sets it."),
+        ("Requirement sheet: the steering (at the hinge)", "table", sheet_table(steer, s.params)),
+    ]  # fmt: skip
+    would = "; ".join(f"{m}: {line}" for m, line in req.get("would", {}).items())
+    near = req.get("nearest")
+    lead = (
+        f"No motor covers; the nearest (motor, ratio): {near['motor']}, {near['coverage']:.1%} on the screen, "
+        f"the {LIMIT_TEXT.get(near['binding'], near['binding'])} binding. "
+        if s.chosen is None and near
+        else ""
+    )
+    out.append(("Each motor against the drive's sheet", "text", lead + would + "."))
     return out
 
 
@@ -675,7 +776,9 @@ def write(folder: str | Path, s: Sizing) -> dict[str, Path]:
                "screen": s.screen.to_dict(orient="records"), "loop": s.loop.to_dict(orient="records"),
                "steer_screen": None if s.steer_screen is None else s.steer_screen.to_dict(orient="records"),
                "steer_loop": None if s.steer_loop is None else s.steer_loop.to_dict(orient="records"),
-               "not_run": s.not_run, "duty": s.duty,
+               "not_run": s.not_run, "duty": s.duty, "requirements": s.requirements,
+               "windows": None if s.windows is None else s.windows.to_dict(orient="records"),
+               "steer_windows": None if s.steer_windows is None else s.steer_windows.to_dict(orient="records"),
                "worst": s.worst, "versions": s.versions, "wall_s": s.wall_s,
                "figures": figs}  # fmt: skip
     paths["summary"].write_text(json.dumps(summary, indent=1, default=str) + "\n")
