@@ -112,6 +112,8 @@ def ramp_of(spec: Any, df: Any) -> dict[str, Any] | None:
     import numpy as np
 
     sc = spec.scenario
+    if sc.kind == "mission":
+        return mission_ramp(spec, df)
     if sc.kind != "straight_line" or not getattr(sc, "ramp_time", 0):
         return None
     v = spec.vehicle
@@ -120,13 +122,11 @@ def ramp_of(spec: Any, df: Any) -> dict[str, Any] | None:
         return _column(df, name, default)
 
     radius = col("wheel.radius", v.wheel.radius)
-    wheel = col("wheel.mass", v.wheel.mass)
-    mass = col("chassis.mass", v.chassis.mass) + 4 * (wheel + col("hub.mass", v.hub.mass))
-    mass = mass + col("payload.mass", v.payload.mass)
+    mass = _mass(spec, df)
     total = float(sc.total_time)
     return {
         "speed": col("speed_kmh", sc.speed_kmh) / 3.6 / radius,
-        "inertia": mass * radius**2 / 4 + 0.5 * wheel * radius**2,
+        "inertia": _drive_inertia(spec, df),
         "ramp_time": col("ramp_time", sc.ramp_time),
         "window": tuple(spec.window) if spec.window is not None else (total / 2, total),
         "law": sc.drive_law,
@@ -136,6 +136,47 @@ def ramp_of(spec: Any, df: Any) -> dict[str, Any] | None:
         * np.cos(np.deg2rad(col("slope_deg", sc.slope_deg)))
         * radius,
     }
+
+
+def _mass(spec: Any, df: Any) -> Any:
+    """Each variant's vehicle mass (kg): chassis, four wheels and hubs, payload."""
+    v = spec.vehicle
+    wheel = _column(df, "wheel.mass", v.wheel.mass)
+    mass = _column(df, "chassis.mass", v.chassis.mass) + 4 * (wheel + _column(df, "hub.mass", v.hub.mass))
+    return mass + _column(df, "payload.mass", v.payload.mass)
+
+
+def _drive_inertia(spec: Any, df: Any) -> Any:
+    """What each drive accelerates without its rotor (kg m^2, per variant): a quarter of the vehicle at the wheel's
+    radius, and the wheel as a solid disc."""
+    v = spec.vehicle
+    radius = _column(df, "wheel.radius", v.wheel.radius)
+    return _mass(spec, df) * radius**2 / 4 + 0.5 * _column(df, "wheel.mass", v.wheel.mass) * radius**2
+
+
+ACCELERATING = ("accelerate",)  # a duty cycle's segments the screen's ramp model reads (`segment_ramp`)
+CARRIES_SPEED = ("accelerate", "cruise", "climb")  # segments that end at their own speed (else from standstill)
+
+
+def mission_ramp(spec: Any, df: Any) -> dict[str, Any]:
+    """A duty cycle's ramp for the screen (`analysis.motors.segment_ramp`): each accelerating segment's transition,
+    duration and the span it starts from (the previous one where it ends at its speed, else None: standstill),
+    each variant's drive inertia (`_drive_inertia`) and the servo's armature."""
+    from batchveh.model.missions import mission_of
+
+    m = mission_of(spec.scenario)
+    spans = m.spans[1:]
+    segments = {}
+    for k, seg in enumerate(m.segments):
+        if seg.kind not in ACCELERATING:
+            continue
+        before = m.segments[k - 1].kind if k else None
+        segments[spans[k]] = {
+            "transition": m.transition(k),
+            "duration": (m.boundaries[k + 1] - m.boundaries[k]) * m.dt,
+            "previous": spans[k - 1] if before in CARRIES_SPEED else None,
+        }
+    return {"segments": segments, "inertia": _drive_inertia(spec, df), "armature": spec.vehicle.motors.armature}
 
 
 def steering(table: Any, share: float) -> str:
@@ -537,7 +578,7 @@ def requirement_sheets(
 ) -> dict[str, Any]:
     """The requirement sheet (`sizing.requirements`): the drive's at the wheel and at the shaft of `drive`, the
     steering's at the hinge and at the shaft of `steer`; with each motor's shortfall against the drive's sheet at
-    the ratio its window chose (`would`: {motor: line}) and the (motor, ratio) nearest to covering."""
+    the ratio where it comes nearest (`would`: {motor: line}) and the (motor, ratio) nearest to covering."""
     from batchveh.sizing import requirements
 
     params = list(spec.params)
@@ -546,7 +587,15 @@ def requirement_sheets(
         "steer": requirements.sheet(df, "steer", span, spec.duty, share, params, cat[steer]),
     }
     wheel = out["drive"]["at_wheel"]
-    out["would"] = {row["motor_name"]: requirements.short_line(cat[row["chosen"]], wheel) for _, row in wins.iterrows()}
+    by_motor: dict[str, list] = {}
+    for m in cat.values():
+        by_motor.setdefault(m.motor_name, []).append(m)
+    # each motor at the ratio where it comes nearest the sheet: the least of its worst factor
+    out["would"] = {
+        name: requirements.short_line(min(ms, key=lambda m: max(requirements.shortfall(m, wheel).values())), wheel)
+        for name, ms in by_motor.items()
+        if name in set(wins["motor_name"])
+    }
     near = wins.sort_values("chosen_coverage", ascending=False, kind="stable").iloc[0]
     out["nearest"] = {"motor": near["chosen"], "ratio": near["chosen_ratio"], "coverage": near["chosen_coverage"],
                       "binding": near["binding"] or near["closed_below"]}  # fmt: skip
