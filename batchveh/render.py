@@ -20,7 +20,8 @@ from pathlib import Path
 import mujoco  # noqa: E402  (batchveh/__init__ chose MUJOCO_GL before this import)
 import numpy as np
 
-from batchveh.config import ConfigError, check_dataclass  # noqa: E402
+from batchveh.cli import run_main  # noqa: E402
+from batchveh.config import ConfigError, OneLineParser, check_dataclass  # noqa: E402
 from batchveh.model.scenarios import Scenario, load_scenario  # noqa: E402
 from batchveh.model.vehicle import Vehicle, load_vehicle  # noqa: E402
 from batchveh.stepping.batch import make_batch  # noqa: E402
@@ -118,7 +119,7 @@ def save(images: list[np.ndarray], path: Path, fps: int = 20) -> Path:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="python -m batchveh.render",
         description=__doc__.split("\n\n")[0],
         epilog="Headless machines need EGL or OSMesa; see the module docstring.",
@@ -132,46 +133,43 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--size", type=int, nargs=2, default=(320, 240), metavar=("W", "H"))
     parser.add_argument("--still", action="store_true", help="one image of the model at rest, no simulation")
     parser.add_argument("--out", type=Path, default=Path("motion.gif"), help=".gif (animation) or .png (still)")
-    args = parser.parse_args(argv)
-    try:
-        if args.fps < 1:
-            raise ConfigError(f"--fps: {args.fps} is not allowed; allowed: an integer >= 1")
-        w, h = args.size
-        if w < 1 or h < 1 or w > MAX_SIZE or h > MAX_SIZE:
-            raise ConfigError(f"--size: {w} {h} is not allowed; allowed: width and height from 1 to {MAX_SIZE} pixels")
-        if args.out.suffix.lower() not in (".gif", ".png"):
-            raise ConfigError(f"--out: {str(args.out)!r} is not allowed; allowed suffixes: .gif, .png")
-        src = Path(args.source)
-        if src.is_dir():
-            import batchveh
-            from batchveh.sweeping.spec import spec_of_result
+    return run_main(parser, _render, argv, where=lambda args: args.out)
 
-            if args.variant is None:
-                raise ConfigError(f"{src}: a sweep result; give --variant N")
-            df = batchveh.load(src)
-            rows = df[df.variant == args.variant]
-            if rows.empty:
-                raise ConfigError(f"--variant: {args.variant} is not in {src}; allowed: 0 to {df.variant.max()}")
-            vehicle, scenario = spec_of_result(src).variant(rows.iloc[0])
-        else:
-            vehicle, scenario = load_vehicle(args.vehicle), load_scenario(args.source)
-        over = {k: getattr(args, k) for k in ("slope_deg", "total_time") if getattr(args, k) is not None}
-        if over:
-            scenario = dataclasses.replace(scenario, **over)
-            check_dataclass(scenario, "command line")
-            scenario.validate("command line")
-        images = (
-            [still(vehicle, width=w, height=h)]
-            if args.still
-            else frames(vehicle, scenario, fps=args.fps, width=w, height=h)
-        )
-        path = save(images, args.out, args.fps)
-    except ConfigError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
-    except OSError as err:
-        print(f"error: {args.out}: cannot write ({err.strerror or err})", file=sys.stderr)
-        return 2
+
+def _render(args: argparse.Namespace) -> int:
+    """The command on its parsed arguments; `run_main` turns its input errors into one line."""
+    if args.fps < 1:
+        raise ConfigError(f"--fps: {args.fps} is not allowed; allowed: an integer >= 1")
+    w, h = args.size
+    if w < 1 or h < 1 or w > MAX_SIZE or h > MAX_SIZE:
+        raise ConfigError(f"--size: {w} {h} is not allowed; allowed: width and height from 1 to {MAX_SIZE} pixels")
+    if args.out.suffix.lower() not in (".gif", ".png"):
+        raise ConfigError(f"--out: {str(args.out)!r} is not allowed; allowed suffixes: .gif, .png")
+    src = Path(args.source)
+    if src.is_dir():
+        import batchveh
+        from batchveh.sweeping.spec import spec_of_result
+
+        if args.variant is None:
+            raise ConfigError(f"{src}: a sweep result; give --variant N")
+        df = batchveh.load(src)
+        rows = df[df.variant == args.variant]
+        if rows.empty:
+            raise ConfigError(f"--variant: {args.variant} is not in {src}; allowed: 0 to {df.variant.max()}")
+        vehicle, scenario = spec_of_result(src).variant(rows.iloc[0])
+    else:
+        vehicle, scenario = load_vehicle(args.vehicle), load_scenario(args.source)
+    over = {k: getattr(args, k) for k in ("slope_deg", "total_time") if getattr(args, k) is not None}
+    if over:
+        scenario = dataclasses.replace(scenario, **over)
+        check_dataclass(scenario, "command line")
+        scenario.validate("command line")
+    images = (
+        [still(vehicle, width=w, height=h)]
+        if args.still
+        else frames(vehicle, scenario, fps=args.fps, width=w, height=h)
+    )
+    path = save(images, args.out, args.fps)
     print(f"wrote {path} ({len(images)} frame{'s' if len(images) > 1 else ''}, {w}x{h})")
     return 0
 

@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from batchveh.config import ConfigError
+from batchveh.cli import run_main
+from batchveh.config import ConfigError, OneLineParser
 from batchveh.model import course
 from batchveh.model.params import base_params
 from batchveh.model.scenarios import SCENARIOS, Scenario, load_scenario
@@ -141,7 +142,7 @@ def write(result: RunResult, out: Path, overwrite: bool = False) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="python -m batchveh.run",
         description=__doc__.split("\n\n")[0],
         epilog=f"Scenarios: {', '.join(SCENARIOS)}. Exit codes: 0 ok, 2 bad input, 3 output exists, 4 diverged.",
@@ -158,37 +159,38 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--precision", choices=("f32", "f64"), default="f32", help="MJX float precision")
     parser.add_argument("--out", type=Path, default=None, help="output folder (default runs/<scenario>)")
     parser.add_argument("--overwrite", action="store_true", help="replace existing results")
-    args = parser.parse_args(argv)
-    try:
-        vehicle = load_vehicle(args.vehicle)
-        scenario = load_scenario(args.scenario)
-        over = {
-            k: getattr(args, k)
-            for k in ("slope_deg", "friction", "speed_kmh", "total_time")
-            if getattr(args, k) is not None
-        }
-        if over:
-            scenario = dataclasses.replace(scenario, **over)
-            from batchveh.config import check_dataclass
+    return run_main(
+        parser,
+        _run,
+        argv,
+        codes={FileExistsError: 3},
+        where=lambda args: args.out or "the output",
+        interrupted="the results are written only at the end; run again",
+    )
 
-            check_dataclass(scenario, "command line")
-            scenario.validate("command line")
-        out = args.out or Path("runs") / Path(args.scenario).stem
-        if (out / "series.parquet").exists() and not args.overwrite:
-            print(f"error: {out / 'series.parquet'} exists; give --overwrite to replace it", file=sys.stderr)
-            return 3
-        course.check(base_params(vehicle, scenario), scenario.obstacle, str(args.scenario))  # names the file
-        t0 = time.perf_counter()
-        result = simulate(vehicle, scenario, backend=args.backend, precision=args.precision)
-        paths = write(result, out, overwrite=args.overwrite)
-    except ConfigError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
-    except OSError as err:
-        print(
-            f"error: {err.filename or args.out or 'the output'}: cannot write ({err.strerror or err})", file=sys.stderr
-        )
-        return 2
+
+def _run(args: argparse.Namespace) -> int:
+    """The command on its parsed arguments; `run_main` turns its input errors into one line."""
+    vehicle = load_vehicle(args.vehicle)
+    scenario = load_scenario(args.scenario)
+    over = {
+        k: getattr(args, k)
+        for k in ("slope_deg", "friction", "speed_kmh", "total_time")
+        if getattr(args, k) is not None
+    }
+    if over:
+        scenario = dataclasses.replace(scenario, **over)
+        from batchveh.config import check_dataclass
+
+        check_dataclass(scenario, "command line")
+        scenario.validate("command line")
+    out = args.out or Path("runs") / Path(args.scenario).stem
+    if (out / "series.parquet").exists() and not args.overwrite:
+        raise FileExistsError(f"{out / 'series.parquet'} exists; give --overwrite to replace it")
+    course.check(base_params(vehicle, scenario), scenario.obstacle, str(args.scenario))  # names the file
+    t0 = time.perf_counter()
+    result = simulate(vehicle, scenario, backend=args.backend, precision=args.precision)
+    paths = write(result, out, overwrite=args.overwrite)
     s = result.stats
     print(
         f"{scenario.kind} on {args.backend}: {scenario.n_steps} steps in {time.perf_counter() - t0:.2f} s, "

@@ -10,6 +10,7 @@ result, ...)` calls that module's `sensitivity`; import its other names from the
 
 from __future__ import annotations
 
+import argparse
 import sys
 import types
 import warnings
@@ -22,7 +23,8 @@ from batchveh.analysis.sensitivity import (
     write,
     write_into_result,
 )
-from batchveh.config import ConfigError, OneLineParser
+from batchveh.cli import run_main
+from batchveh.config import OneLineParser
 from batchveh.sweeping.results import Locked
 
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS = 0, 2, 3
@@ -49,24 +51,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--conf-level", type=float, default=0.95, help="confidence level (default 0.95)")
     parser.add_argument("--resamples", type=int, default=100, help="bootstrap resamples (default 100)")
     parser.add_argument("--top", type=int, default=3, help="parameters printed per statistic (default 3)")
-    args = parser.parse_args(argv)
+    return run_main(parser, _sensitivity, argv, codes={Locked: EXIT_EXISTS}, where=lambda args: args.out or args.result)
+
+
+def _sensitivity(args: argparse.Namespace) -> int:
+    """The command on its parsed arguments; `run_main` turns its input errors into one line."""
     chosen = [s.strip() for s in args.statistics.split(",") if s.strip()] if args.statistics is not None else None
-    try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", SensitivityWarning)
-            table = sensitivity(
-                args.result, chosen, non_ok=args.non_ok, conf_level=args.conf_level, resamples=args.resamples
-            )
-        written = write(table, args.out) if args.out else write_into_result(table, args.result)
-    except ConfigError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return EXIT_INPUT
-    except Locked as err:
-        print(f"error: {err}", file=sys.stderr)
-        return EXIT_EXISTS
-    except OSError as err:
-        print(f"error: {err.filename or args.out or args.result}: {err.strerror or err}", file=sys.stderr)
-        return EXIT_INPUT
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", SensitivityWarning)
+        table = sensitivity(
+            args.result, chosen, non_ok=args.non_ok, conf_level=args.conf_level, resamples=args.resamples
+        )
+    written = write(table, args.out) if args.out else write_into_result(table, args.result)
     for w in caught:
         if issubclass(w.category, SensitivityWarning):
             print(f"warning: {w.message}", file=sys.stderr)

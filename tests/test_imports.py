@@ -13,7 +13,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "batchveh"
 # The data flow, lowest first: each module may import its own layer and the ones below it. A layer
 # is a folder of the package (test_each_folder_is_one_layer), but for the base and the top.
 LAYERS = {
-    "base": ("config",),
+    "base": ("config", "cli"),  # cli: the one error path of every command line
     # what is simulated: the vehicle, the wheel-ground models, the ground, the motion laws, the scenario
     # kinds and the registry of sweepable parameters
     "model": tuple(
