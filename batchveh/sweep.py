@@ -253,7 +253,7 @@ def run_sweep(
     folder.refuse_existing(resume=resume, overwrite=overwrite)  # before workers start, which takes a while
     if resume and chunk_size is None and executor.spreads:
         # the automatic chunk size follows the number of workers, which may have changed since
-        chunk_size = (folder.read_manifest() or {}).get("chunk_size")
+        chunk_size = folder.resume_chunk_size()  # the manifest's, or a part's where the manifest was lost
     # the engine's start (imports, the device, Ray's workers) can take several seconds: a line says so,
     # unless it is done (or refused, in one line of its own) sooner
     starting = threading.Timer(
@@ -284,6 +284,8 @@ def run_sweep(
         n_chunks = -(-n // chunk)
         with folder.lock():
             done, bad = folder.open(manifest, resume=resume, overwrite=overwrite)
+            for line in folder.notes:  # a manifest rebuilt from the parts
+                note(line)
             for name, why in bad.items():
                 note(f"{folder.where(name)}: {why}; its chunk runs again")
             todo = [c for c in range(n_chunks) if c not in done]

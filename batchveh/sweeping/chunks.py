@@ -2,8 +2,9 @@
 
 `ChunkRunner` is what runs chunks, in the sweep's own process or in a Ray worker
 (`batchveh.sweeping.cluster`): it builds the engine once, so each process compiles once, and
-`run(c)` turns chunk number `c` into the part's table, with units on the columns and
-the spec, versions, device and timings in the file metadata. It also says what the
+`run(c)` turns chunk number `c` into the part's table, with units on the columns,
+the spec, versions, device and timings in the file metadata, and the part's own record
+(`results.seal`: chunk, variants, settings, checksum of its data). It also says what the
 result folder's manifest records about it (`manifest`), which a resume must match.
 """
 
@@ -24,7 +25,7 @@ from batchveh.model import course
 from batchveh.model.params import parameter_specs
 from batchveh.stepping import motor_stats, stats
 from batchveh.stepping.batch import apply_solver, make_batch
-from batchveh.sweeping.results import ResultFolder, part_table
+from batchveh.sweeping.results import ResultFolder, part_table, seal
 from batchveh.sweeping.spec import SweepSpec, sampler_version
 
 TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match it
@@ -144,7 +145,8 @@ class ChunkRunner:
             "prepare_s": prepare_s,
             "compile_s": self.engine.compile_s,
         }
-        return part_table(frame, self.param_units, meta)
+        # the part carries its own record (chunk, variants, settings, checksum): a lost manifest is rebuilt from it
+        return seal(part_table(frame, self.param_units, meta), c, c * self.chunk, self.manifest)
 
     def run(self, c: int) -> pa.Table:
         """Chunk `c`'s rows: the variant table's rows, then the statistics columns and `status`."""

@@ -7,7 +7,19 @@ that is missing, unlisted or does not match is not finished, and `--resume` runs
 its chunk again. Each part's Arrow fields carry `unit` and `description` metadata;
 its file metadata carries the spec, the batchveh, mujoco and jax versions, the
 device and the timings. Parts and the manifest are written under a temporary name,
-then renamed, so a kill leaves either the old file or the new one.
+fsynced, then renamed and the folder fsynced (`storage.write_atomic`), so a kill or a
+power cut leaves either the old file or the new one.
+
+Each part also carries, under the file metadata key `batchveh.part`, what the manifest says
+of it (`seal`): its chunk, its variants (the first one's index and their count), the
+manifest's settings that a resume must match and their digest, and `data_sha256`, a
+checksum of the table's content (`storage.table_sha256`: the file's own SHA-256 cannot be
+written inside the file). So the manifest can be lost: on `--resume`, a manifest that is
+missing, empty, torn or not JSON is rebuilt from the parts whose own record matches the
+sweep's settings and whose data match their checksum; a part that is torn, unreadable or
+fails its checksum is removed and its chunk runs again, and so does a part listed nowhere
+valid. A manifest that is valid JSON from other settings is refused, as are intact parts
+from other settings: that is another sweep's folder, not a power cut.
 
 The folder is a local path or a URI that `pyarrow.fs` understands (`s3://bucket/sweep`,
 `gs://...`, `file:///...`); both are read and written through `pyarrow.fs`. On a local
@@ -37,9 +49,19 @@ import pyarrow.parquet as pq
 from batchveh.config import ConfigError
 from batchveh.stepping import mission_stats, motor_stats
 from batchveh.stepping.stats import CHANNELS
-from batchveh.sweeping.storage import file_sha256, filesystem, parquet_bytes, write_atomic
+from batchveh.sweeping.storage import (
+    file_sha256,
+    filesystem,
+    parquet_bytes,
+    sync_folder,
+    table_sha256,
+    write_atomic,
+)
 
 MANIFEST = "manifest.json"
+PART_KEY = b"batchveh.part"  # a part's own record, in its file metadata (`seal`)
+OWN = ("parts", "files")  # what a manifest holds besides the settings a resume must match
+NO_RECORD = "carries no record of its own to check it against (written by an older batchveh)"
 LOCK = ".batchveh.lock"
 PART = "part-{:05d}.parquet"
 PART_GLOB = "part-*.parquet"
@@ -122,6 +144,45 @@ def _temporary(name: str) -> bool:
     return name.endswith(".tmp") and (name.startswith(".part-") or name.startswith(f".{MANIFEST}."))
 
 
+def settings(manifest: dict[str, Any]) -> dict[str, Any]:
+    """What of a manifest a resume must match (all but its parts and files), as JSON reads it back."""
+    return json.loads(json.dumps({k: v for k, v in manifest.items() if k not in OWN}, default=str))
+
+
+def manifest_digest(manifest: dict[str, Any]) -> str:
+    """The SHA-256 of a manifest's settings (`settings`, keys sorted): equal settings, equal digests."""
+    return hashlib.sha256(json.dumps(settings(manifest), sort_keys=True).encode()).hexdigest()
+
+
+def seal(table: pa.Table, chunk: int, first: int, manifest: dict[str, Any]) -> pa.Table:
+    """`table` with its own record under the file metadata key `batchveh.part`: the chunk, the first variant's
+    index and the count of variants, the settings of the sweep's `manifest` and their digest. `write_file` adds
+    the checksum of the table's content (`storage.table_sha256`) as it writes the part, on the writing thread
+    beside the engine; a resume checks the part against it when the manifest cannot vouch for the part."""
+    own = {
+        "chunk": chunk,
+        "first_variant": first,
+        "variants": table.num_rows,
+        "digest": manifest_digest(manifest),
+        "settings": settings(manifest),
+    }
+    return table.replace_schema_metadata({**(table.schema.metadata or {}), PART_KEY: json.dumps(own).encode()})
+
+
+def _checksummed(table: pa.Table) -> tuple[pa.Table, dict[str, Any] | None]:
+    """(`table` with the checksum of its content added to its own record, that record), or (table, None) for a
+    table that has no record of its own (not made by a sweep's chunk)."""
+    raw = (table.schema.metadata or {}).get(PART_KEY)
+    if raw is None:
+        return table, None
+    own = {**json.loads(raw), "data_sha256": table_sha256(table)}
+    return table.replace_schema_metadata({**table.schema.metadata, PART_KEY: json.dumps(own).encode()}), own
+
+
+def _chunk_of(name: str) -> int:
+    return int(name.removesuffix(".parquet").split("-")[1])
+
+
 def annotated_table(frame: pd.DataFrame, fields: dict[str, dict[str, str]], meta: dict[str, str]) -> pa.Table:
     """A frame as an Arrow table with `fields[name]` as each field's metadata and `meta` on the file. Every
     floating column is written float64, whatever the engine computed in (MJX and Warp run float32): a result's
@@ -154,6 +215,7 @@ class ResultFolder:
         # where messages and `load` point: the path as given, or the URI
         self.path: Path | str = Path(location) if "://" not in str(location) else str(location).rstrip("/")
         self.manifest: dict[str, Any] = {}
+        self.notes: list[str] = []  # what `open` found that the user should hear of (a manifest rebuilt)
 
     @property
     def shared(self) -> str:
@@ -180,21 +242,64 @@ class ResultFolder:
         )
 
     def read_manifest(self) -> dict[str, Any] | None:
+        """The manifest, or None where there is none; ResultError where it is damaged (a power cut's)."""
+        manifest, damage = self._manifest()
+        if damage is not None:
+            raise ResultError(
+                f"{self.where(MANIFEST)}: {damage}; run the sweep again with --resume to rebuild it from the parts"
+            )
+        return manifest
+
+    def _manifest(self) -> tuple[dict[str, Any] | None, str | None]:
+        """(the manifest or None, what is wrong with it or None). Damaged: empty, torn (not JSON, or JSON that
+        is not an object), as a power cut leaves a file renamed before its data reached the disk."""
         f = self._file(MANIFEST)
         if self.fs.get_file_info(f).type != pafs.FileType.File:
-            return None
+            return None, None
+        with self.fs.open_input_stream(f) as stream:
+            data = stream.read()
+        if not data.strip(b"\0 \n"):
+            return None, f"damaged ({'empty' if not data else 'zeroed'})"
         try:
-            with self.fs.open_input_stream(f) as stream:
-                return json.loads(stream.read())
+            manifest = json.loads(data)
         except (json.JSONDecodeError, UnicodeDecodeError):
-            raise ResultError(
-                f"{self.where(MANIFEST)}: damaged (not JSON); give --overwrite to run the sweep again from scratch"
-            ) from None
+            return None, "damaged (not JSON: torn)"
+        if not isinstance(manifest, dict):
+            return None, "damaged (JSON, but not an object)"
+        return manifest, None
+
+    def own_record(self, name: str) -> tuple[dict[str, Any] | None, str]:
+        """(part `name`'s own record (`seal`), '') where the part is whole: readable, its record there and
+        for its own chunk, and its data matching their checksum; else (None, what is wrong)."""
+        path = self._file(name)
+        try:
+            schema = pq.read_schema(path, filesystem=self.fs)
+        except Exception as err:  # noqa: BLE001 - a torn file raises whatever its bytes lead the reader to
+            return None, f"torn or not Parquet ({str(err).splitlines()[0] if str(err) else type(err).__name__})"
+        raw = (schema.metadata or {}).get(PART_KEY)
+        if raw is None:
+            return None, NO_RECORD
+        try:
+            own = json.loads(raw)
+            table = pq.read_table(path, filesystem=self.fs)
+        except Exception as err:  # noqa: BLE001
+            return None, f"unreadable ({str(err).splitlines()[0] if str(err) else type(err).__name__})"
+        if own.get("chunk") != _chunk_of(name) or own.get("variants") != table.num_rows:
+            return None, f"its own record (chunk {own.get('chunk')}, {own.get('variants')} variants) does not fit"
+        if table_sha256(table) != own.get("data_sha256"):
+            return None, "its data differ from the checksum it carries (damaged after it was written)"
+        return own, ""
 
     @contextlib.contextmanager
     def lock(self) -> Iterator[None]:
         """Hold the folder's advisory lock; raise Locked naming the holder if another process has it.
-        On an object store there is no lock to take: the folder is created, nothing is locked."""
+        On an object store there is no lock to take: the folder is created, nothing is locked.
+
+        The lock is a kernel lock (flock) on the file `.batchveh.lock`, which is created once and never
+        replaced: a file renamed over it would be a new file, which a second writer could lock while the
+        first holds the old one. So the holder's name is written into it in place, then fsynced, and the
+        folder fsynced where the file was created. A power cut releases the lock with its holder; what it
+        leaves in the file (the name, or nothing) is only the message a blocked writer shows."""
         import fcntl
 
         self._check_folder()
@@ -202,15 +307,20 @@ class ResultFolder:
         if not isinstance(self.fs, pafs.LocalFileSystem):
             yield
             return
-        fd = os.open(self._file(LOCK), os.O_RDWR | os.O_CREAT, 0o644)
+        path = self._file(LOCK)
+        created = not os.path.exists(path)
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
-                holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "another process"
+                holder = os.pread(fd, 200, 0).decode(errors="replace").strip("\0 \n") or "another process"
                 raise Locked(f"{self.path} is being written by {holder}; wait for it, or use another --out") from None
             os.ftruncate(fd, 0)
             os.pwrite(fd, f"pid {os.getpid()} on {socket.gethostname()}".encode(), 0)
+            os.fsync(fd)
+            if created:
+                sync_folder(self.root)
             yield
         finally:
             os.close(fd)  # closing releases the lock
@@ -222,65 +332,131 @@ class ResultFolder:
                 raise ConfigError(f"{self.path}: {p} exists and is not a folder; allowed: a folder for the results")
             p = posixpath.dirname(p)
 
+    def _matches(self, name: str, rec: dict[str, Any]) -> str:
+        """'' where part `name` is the file the manifest's record `rec` describes, else what differs."""
+        size = self.fs.get_file_info(self._file(name)).size
+        if size != rec.get("bytes"):
+            return f"{size} bytes where {rec.get('bytes')} were written (truncated or changed)"
+        if file_sha256(self.fs, self._file(name)) != rec.get("sha256"):
+            return "checksum differs from the one recorded (the file changed after it was written)"
+        return ""
+
     def verify(self) -> tuple[set[int], dict[str, str]]:
-        """(finished chunks, {part name: what is wrong}) against the manifest's records."""
-        records = (self.read_manifest() or {}).get("parts", {})
+        """(finished chunks, {part name: what is wrong}) against the manifest's records. Without a manifest,
+        the parts that carry their own record are checked against it (`own_record`)."""
+        manifest = self.read_manifest()
+        records = (manifest or {}).get("parts", {})
         done, bad = set(), {}
         for name in self.parts():
-            rec, size = records.get(name), self.fs.get_file_info(self._file(name)).size
-            if rec is None:
-                bad[name] = "not in the manifest (written by a run that was killed before recording it)"
-            elif size != rec["bytes"]:
-                bad[name] = f"{size} bytes where {rec['bytes']} were written (truncated or changed)"
-            elif file_sha256(self.fs, self._file(name)) != rec["sha256"]:
-                bad[name] = "checksum differs from the one recorded (the file changed after it was written)"
+            rec = records.get(name)
+            if manifest is None:
+                why = self.own_record(name)[1]
+            elif rec is None:
+                why = "not in the manifest (written by a run that was killed before recording it)"
             else:
-                done.add(int(name.removesuffix(".parquet").split("-")[1]))
+                why = self._matches(name, rec)
+            if why:
+                bad[name] = why
+            else:
+                done.add(_chunk_of(name))
         return done, bad
 
     def refuse_existing(self, *, resume: bool, overwrite: bool) -> None:
         """FileExistsError where results are there and neither resume nor overwrite is given."""
-        if not resume and not overwrite and (self.parts() or self.read_manifest() is not None):
+        there = self.parts() or self.fs.get_file_info(self._file(MANIFEST)).type == pafs.FileType.File
+        if not resume and not overwrite and there:
             raise FileExistsError(
                 f"{self.path} holds results; give --resume to continue or --overwrite to replace them"
             )
 
-    def open(self, manifest: dict[str, Any], *, resume: bool, overwrite: bool) -> tuple[set[int], dict[str, str]]:
-        """Start or resume: returns (finished chunks, bad parts removed for a rerun).
+    def resume_chunk_size(self) -> int | None:
+        """The chunk size the results there were made with: the manifest's, or where it is missing or damaged
+        the one the first whole part records; None where neither says."""
+        manifest, _ = self._manifest()
+        if manifest is not None:
+            return manifest.get("chunk_size")
+        for name in self.parts():
+            own = self.own_record(name)[0]
+            if own is not None:
+                return own["settings"].get("chunk_size")
+        return None
 
-        Raises FileExistsError where results exist and neither resume nor overwrite is
-        given, and ConfigError where they come from another spec or setting."""
+    def open(self, manifest: dict[str, Any], *, resume: bool, overwrite: bool) -> tuple[set[int], dict[str, str]]:
+        """Start or resume: returns (finished chunks, bad parts removed for a rerun), and leaves in `notes`
+        what the user should hear of (a manifest rebuilt).
+
+        On resume, a part counts as finished where the manifest's record of it matches the file, or else where
+        the part's own record (`seal`) has this sweep's settings and its data match their checksum (a part
+        renamed into place before the manifest recorded it, or a manifest lost). A manifest that is missing,
+        empty or torn is rebuilt from those parts; the other parts are removed, with the stale temporaries of
+        killed writers. Raises FileExistsError where results exist and neither resume nor overwrite is given,
+        and ConfigError where they come from another spec or setting (a valid manifest, or whole parts, of
+        other settings)."""
         self._check_folder()
         self.refuse_existing(resume=resume, overwrite=overwrite)
-        old = self.read_manifest() if not overwrite else None
-        existing = self.parts()
+        self.notes = []
         if overwrite:
             self.remove()
-        done, bad = set(), {}
-        if resume and old is not None:
-            ours = json.loads(json.dumps(manifest, default=str))
-            differ = [k for k in ours if k != "parts" and old.get(k) != ours[k]]
-            if differ:
-                k = differ[0]
-                raise ConfigError(
-                    f"{self.path}: the results there were made with another {k} ({_short(old.get(k))}, now "
-                    f"{_short(ours[k])}); resume with the same settings, or give --overwrite to replace them"
+        ours = settings(manifest)
+        digest = manifest_digest(manifest)
+        done, bad, kept = set(), {}, {}
+        if resume:
+            old, damage = self._manifest()
+            if old is not None:
+                self._refuse_other(old, ours)
+                if "files" in old:  # figures and analyses written beside the parts: --overwrite still removes them
+                    manifest = {**manifest, "files": old["files"]}
+            records = (old or {}).get("parts", {})
+            for name in self.parts():
+                rec = records.get(name)
+                why = self._matches(name, rec) if rec is not None else "not in the manifest"
+                if not why:
+                    kept[name] = rec
+                    continue
+                own, why_own = self.own_record(name)
+                if own is None:
+                    bad[name] = why if rec is not None else why_own
+                elif own["digest"] != digest:
+                    if old is None:  # whole parts of other settings, their manifest lost: another sweep's folder
+                        self._refuse_other(own["settings"], ours, name)
+                    bad[name] = "made with other settings than the manifest's"
+                else:
+                    kept[name] = self._record_of(name, own)
+            if damage is not None or (old is None and kept):
+                k = len(kept)
+                self.notes.append(
+                    f"{self.where(MANIFEST)}: {damage or 'missing'}; rebuilt from the {k} whole part{'s' * (k != 1)} "
+                    "of these settings"
                 )
-            done, bad = self.verify()
             for name in bad:
                 self.fs.delete_file(self._file(name))
-            manifest = {**manifest, "parts": {k: v for k, v in old.get("parts", {}).items() if k not in bad}}
-            if "files" in old:  # figures and analyses written beside the parts: --overwrite still removes them
-                manifest["files"] = old["files"]
-        elif resume:  # parts but no manifest: nothing can be verified
-            for name in existing:
-                bad[name] = "no manifest to verify it against"
-                self.fs.delete_file(self._file(name))
+            done = {_chunk_of(name) for name in kept}
         self.remove_temporaries()
-        self.manifest = {**manifest, "parts": manifest.get("parts", {})}
+        self.manifest = {**manifest, "parts": kept}
         self.fs.create_dir(self.root, recursive=True)
         self._save()
         return done, bad
+
+    def _refuse_other(self, theirs: dict[str, Any], ours: dict[str, Any], part: str | None = None) -> None:
+        """ConfigError naming the first setting in which `theirs` (the manifest's, or a part's own) differs."""
+        differ = [k for k in ours if theirs.get(k) != ours[k]]
+        if differ:
+            k = differ[0]
+            said = f" (as {part} records)" if part else ""
+            raise ConfigError(
+                f"{self.path}: the results there were made with another {k} ({_short(theirs.get(k))}, now "
+                f"{_short(ours[k])}){said}; resume with the same settings, or give --overwrite to replace them"
+            )
+
+    def _record_of(self, name: str, own: dict[str, Any]) -> dict[str, Any]:
+        """The manifest's record of a whole part, rebuilt from the file and its own record."""
+        return {
+            "rows": own["variants"],
+            "bytes": self.fs.get_file_info(self._file(name)).size,
+            "sha256": file_sha256(self.fs, self._file(name)),
+            "first_variant": own["first_variant"],
+            "data_sha256": own["data_sha256"],
+        }
 
     def remove_temporaries(self) -> None:
         """Delete the temporaries of writers that were killed (call it while no writer runs)."""
@@ -293,12 +469,18 @@ class ResultFolder:
         write_atomic(self.fs, self._file(MANIFEST), text.encode())
 
     def write_file(self, chunk: int, table: pa.Table) -> tuple[str, dict[str, Any]]:
-        """Write chunk's part atomically; return (its name, its record: rows, bytes, SHA-256). The
-        checksum is of the bytes written, so it needs no second read of the file."""
+        """Write chunk's part atomically and durably, the checksum of its content added to its own record
+        (`seal`); return (its name, its record: rows, bytes, SHA-256, and from its own record its first
+        variant and the checksum of its data). The file's checksum is of the bytes written, so it needs no
+        second read of the file."""
         name = PART.format(chunk)
+        table, own = _checksummed(table)
         data = parquet_bytes(table)
         write_atomic(self.fs, self._file(name), data)
-        return name, {"rows": table.num_rows, "bytes": data.size, "sha256": hashlib.sha256(data).hexdigest()}
+        rec = {"rows": table.num_rows, "bytes": data.size, "sha256": hashlib.sha256(data).hexdigest()}
+        if own is not None:
+            rec.update(first_variant=own["first_variant"], data_sha256=own["data_sha256"])
+        return name, rec
 
     def record(self, name: str, rec: dict[str, Any]) -> None:
         """Enter a written part in the manifest, and save it."""
@@ -365,12 +547,15 @@ def load(path: str | Path, columns: list[str] | None = None, verify: bool = True
     """All rows of a sweep result folder (or one Parquet file) as a DataFrame, by variant.
 
     `path`: a local path or a URI pyarrow.fs understands (s3://...). Every part is checked
-    against the manifest first (`verify`); a bad one raises ResultError naming it and what to
-    do. `columns`: read only these (and `variant`)."""
+    against the manifest first (`verify`), or where the manifest is missing against its own record;
+    a bad one, or a damaged manifest, raises ResultError naming it and what to do. `columns`: read
+    only these (and `variant`)."""
     folder = ResultFolder(path)
     files = _files(folder)
-    if verify and files[0][0] != folder.root and "parts" in (folder.read_manifest() or {}):
-        _, bad = folder.verify()  # results from before the checksums have no "parts" to check against
+    manifest = folder.read_manifest() if verify and files[0][0] != folder.root else {}
+    if manifest is None or "parts" in manifest:  # results from before the checksums have nothing to check against
+        _, bad = folder.verify()  # without a manifest, against each part's own record where it carries one
+        bad = {name: why for name, why in bad.items() if why != NO_RECORD}
         if bad:
             name, why = next(iter(bad.items()))
             more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
