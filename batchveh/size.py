@@ -29,12 +29,14 @@ Exit codes: 0 done (a motor chosen, or none covers: the report says why), 2 bad 
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
+from batchveh.cli import run_main
 from batchveh.config import ConfigError, OneLineParser
 
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_INTERRUPTED = 0, 2, 3, 130
@@ -156,12 +158,14 @@ def _drive_inertia(spec: Any, df: Any) -> Any:
 
 ACCELERATING = ("accelerate",)  # a duty cycle's segments the screen's ramp model reads (`segment_ramp`)
 CARRIES_SPEED = ("accelerate", "cruise", "climb")  # segments that end at their own speed (else from standstill)
+STANDING = ("steer",)  # segments that ask the drives to hold their wheels still while the steering turns them
 
 
 def mission_ramp(spec: Any, df: Any) -> dict[str, Any]:
     """A duty cycle's ramp for the screen (`analysis.motors.segment_ramp`): each accelerating segment's transition,
     duration and the span it starts from (the previous one where it ends at its speed, else None: standstill),
-    each variant's drive inertia (`_drive_inertia`) and the servo's armature."""
+    the spans where the vehicle stands while it steers (`standing`: a drive's peak there is not judged), each
+    variant's drive inertia (`_drive_inertia`) and the servo's armature."""
     from batchveh.model.missions import mission_of
 
     m = mission_of(spec.scenario)
@@ -176,7 +180,13 @@ def mission_ramp(spec: Any, df: Any) -> dict[str, Any]:
             "duration": (m.boundaries[k + 1] - m.boundaries[k]) * m.dt,
             "previous": spans[k - 1] if before in CARRIES_SPEED else None,
         }
-    return {"segments": segments, "inertia": _drive_inertia(spec, df), "armature": spec.vehicle.motors.armature}
+    standing = [spans[k] for k, seg in enumerate(m.segments) if seg.kind in STANDING]
+    return {
+        "segments": segments,
+        "standing": standing,
+        "inertia": _drive_inertia(spec, df),
+        "armature": spec.vehicle.motors.armature,
+    }
 
 
 def steering(table: Any, share: float) -> str:
@@ -691,7 +701,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--overwrite", action="store_true", help="replace a report in --out")
     parser.add_argument("--dry-run", action="store_true", help="estimate the whole run, then stop")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    args = parser.parse_args(argv)
+    return run_main(
+        parser,
+        lambda args: _size(parser, args),
+        argv,
+        codes={FileExistsError: EXIT_EXISTS},
+        where=lambda args: args.spec,
+        interrupted="the finished chunks (the servo sweep's, the loop's) are kept; run again to reuse them",
+    )
+
+
+def _size(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    """The command on its parsed arguments; `run_main` turns its input errors into one line."""
     if args.limit is not None and args.limit < 1:
         parser.error(f"--limit: {args.limit!r} is not allowed; allowed: an integer >= 1")
     if args.address is not None and args.executor != "ray":
@@ -715,21 +736,6 @@ def main(argv: list[str] | None = None) -> int:
             return new_executor(args.executor, spec, backend, n)
 
         s, paths = size(args, executor)
-    except ConfigError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return EXIT_INPUT
-    except FileExistsError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return EXIT_EXISTS
-    except OSError as err:
-        print(f"error: {err.filename or args.spec}: {err.strerror or err}", file=sys.stderr)
-        return EXIT_INPUT
-    except KeyboardInterrupt:
-        print(
-            "\ninterrupted: the finished chunks (the servo sweep's, the loop's) are kept; run again to reuse them",
-            file=sys.stderr,
-        )
-        return EXIT_INTERRUPTED
     finally:
         if started_ray:
             cluster.disconnect()

@@ -35,6 +35,7 @@ if __name__ == "__main__":  # the command line: the other GPUs' workers start be
 
 import pandas as pd  # noqa: E402
 
+from batchveh.cli import run_main  # noqa: E402
 from batchveh.config import ConfigError, OneLineParser  # noqa: E402
 from batchveh.stepping.motor_stats import MOTOR_STATUS  # noqa: E402
 from batchveh.sweeping.chunks import ChunkRunner  # noqa: E402
@@ -481,7 +482,18 @@ def main(argv: list[str] | None = None) -> int:
         help="with --executor ray: the cluster to join (auto, HOST:PORT as `ray start --head` prints it, or "
         "ray://HOST:PORT); default: start a local Ray instance on this machine",
     )
-    args = parser.parse_args(argv)
+    return run_main(
+        parser,
+        lambda args: _sweep(parser, args),
+        argv,
+        codes={(FileExistsError, Locked): EXIT_EXISTS},
+        where=lambda args: args.out or "the output",
+        interrupted="finished chunks are kept; run again with --resume",
+    )
+
+
+def _sweep(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    """The command on its parsed arguments; `run_main` turns its input errors into one line."""
     if args.address is not None and args.executor != "ray":
         parser.error("--address: needs --executor ray")
     started_ray = False
@@ -526,18 +538,6 @@ def main(argv: list[str] | None = None) -> int:
             )
             s["folder"].record_files(figs)
             print("figures: " + ", ".join(str(p) for p in figs))
-    except ConfigError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return EXIT_INPUT
-    except (FileExistsError, Locked) as err:
-        print(f"error: {err}", file=sys.stderr)
-        return EXIT_EXISTS
-    except OSError as err:
-        print(f"error: {err.filename or args.out or 'the output'}: {err.strerror or err}", file=sys.stderr)
-        return EXIT_INPUT
-    except KeyboardInterrupt:
-        print("\ninterrupted: finished chunks are kept; run again with --resume", file=sys.stderr)
-        return EXIT_INTERRUPTED
     finally:
         prestart.release()  # any not taken (a sweep that runs in this process alone, an error)
         if started_ray:

@@ -81,3 +81,19 @@ def test_the_screen_forgives_a_peak_the_loop_would_and_fails_one_it_would_not():
     assert got.loc["near", "coverage"] == 1.0 and got.loc["far", "coverage"] == 0.0
     assert got.loc["far", "fails_peak"] == 1
     assert (strict["coverage"] == 0.0).all() and (strict["fails_peak"] == 1).all()
+
+
+def test_a_drives_peak_while_the_vehicle_steers_in_place_is_not_judged():
+    """A steer in place (the drives hold their wheels still against the patch's scrub): a drive's peak above its
+    bound there fails the screen without the cycle's `standing` spans, and passes with them, as the loop reads no
+    distance there. The same peak in an accelerating segment still fails where the ramp falls behind."""
+    df = _cycle(1)
+    steer = "seg1_steer"
+    for m in DRIVES:
+        df[f"{steer}_{m}_rms"], df[f"{steer}_{m}_peak_lp"], df[f"{steer}_{m}_speed_peak"] = 1.0, 5 * PEAK, 0.0
+        df[f"{SEG}_{m}_peak_lp"] = 1.0  # the acceleration within every bound below
+    cat = {"m": _motor(2 * PEAK)}
+    standing = {**RAMP, "standing": [steer]}
+    _, strict, _ = screen(df, cat, share=0.99, span="mission", params=[], ramp=RAMP)
+    _, held, _ = screen(df, cat, share=0.99, span="mission", params=[], ramp=standing)
+    assert strict["fails_peak"].iloc[0] == 1 and held["coverage"].iloc[0] == 1.0

@@ -441,6 +441,10 @@ def _segments(
     for seg in segments:
         need = demand(df, group, seg)
         got = screen_one(need, motor)
+        if ramp is not None and group == "drive" and seg in ramp.get("standing", ()):
+            # a steer in place: the drives hold their wheels still against the patch's scrub; one at its bound lets
+            # its wheel roll a little, and no distance is asked (the loop's segment_shortfall reads none there)
+            got["peak"] = False
         if ramp is not None and group == "drive" and seg in ramp["segments"] and c["i_max"] > 0:
             # an accelerating segment: its peak above the bound fails only where the drive at its bound falls more
             # than SHORT_SHARE behind over the segment, as the loop counts it

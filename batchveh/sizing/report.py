@@ -298,7 +298,7 @@ def torque_speed(ax, s: Sizing, name: str) -> None:
     ax.set_ylabel("drive torque at the wheel (N m)")
     ran = "in the loop" if d is not None else "not run in the loop: the servo's demand only"
     ax.set_title(f"{name}\n{n:g}:1, eta {eta:g}, {v:g} V; {ran}", fontsize=9)
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0))  # beside: the lines stay clear
 
 
 def telling(d: pd.DataFrame, params: list[str], missed: np.ndarray) -> list[str]:
@@ -406,12 +406,12 @@ def figures(folder: Path, s: Sizing) -> dict[str, str]:
     (folder / FIGURES).mkdir(parents=True, exist_ok=True)
     shown = [m for m in dict.fromkeys((smaller(s), focus(s))) if m is not None]
     if shown:
-        fig, axes = plt.subplots(1, len(shown), figsize=(5.5 * len(shown), 4.2), squeeze=False)
+        fig, axes = plt.subplots(1, len(shown), figsize=(8.5 * len(shown), 4.4), squeeze=False)
         for ax, name in zip(axes[0], shown, strict=True):
             torque_speed(ax, s, name)
             if s.requirements and name == focus(s):  # the sheet's points on the motor that covers (or comes nearest)
                 sheet_points(ax, s.requirements["drive"], s.servo["wheel_speed"].to_numpy(float))
-                ax.legend(fontsize=6, loc="upper right")
+                ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         out["The torque-speed plane at the wheel"] = _save(fig, folder, "torque_speed.png")
     for what, ratios, wins in (("drive", s.ratios, s.windows), ("steering", s.steer_ratios, s.steer_windows)):
         if ratios is None or wins is None or not len(wins):
