@@ -601,10 +601,11 @@ def requirement_sheets(
     for m in cat.values():
         by_motor.setdefault(m.motor_name, []).append(m)
     # each motor at the ratio where it comes nearest the sheet: the least of its worst factor
-    out["would"] = {
-        name: requirements.short_line(min(ms, key=lambda m: max(requirements.shortfall(m, wheel).values())), wheel)
-        for name, ms in by_motor.items()
-        if name in set(wins["motor_name"])
+    out["would"] = {  # smallest motor first, as the windows
+        name: requirements.short_line(
+            min(by_motor[name], key=lambda m: max(requirements.shortfall(m, wheel).values())), wheel
+        )
+        for name in wins["motor_name"]
     }
     near = wins.sort_values("chosen_coverage", ascending=False, kind="stable").iloc[0]
     out["nearest"] = {"motor": near["chosen"], "ratio": near["chosen_ratio"], "coverage": near["chosen_coverage"],

@@ -659,7 +659,7 @@ def window_table(wins: pd.DataFrame | None) -> pd.DataFrame:
     )
 
 
-def sheet_table(sheet: dict[str, Any], params: list[str]) -> pd.DataFrame:
+def sheet_table(sheet: dict[str, Any], params: list[str], at: str = "at the wheel") -> pd.DataFrame:
     """A requirement sheet as a table: each figure at the wheel (hinge) and at the motor's shaft, and the
     variant that sets it."""
     shaft = sheet.get("at_shaft", {})
@@ -667,14 +667,14 @@ def sheet_table(sheet: dict[str, Any], params: list[str]) -> pd.DataFrame:
     for key, fig in sheet["at_wheel"].items():
         variant = ", ".join(f"{k} {_short(v)}" for k, v in fig["variant"].items()) or "-"
         at = shaft.get(key, {}).get("value", float("nan"))
-        rows.append({"figure": SHEET_TEXT.get(key, key), "unit": fig["unit"], "at the wheel": _short(fig["value"]),
+        rows.append({"figure": SHEET_TEXT.get(key, key), "unit": fig["unit"], at: _short(fig["value"]),
                      "at the shaft": _short(at), "set by the variant": variant})  # fmt: skip
     return pd.DataFrame(rows)
 
 
 SHEET_TEXT = {
     "rms_torque": "RMS torque at the duty",
-    "peak_torque": "peak torque (low-pass; a straight line's at speed)",
+    "peak_torque": "peak torque (low-pass: a straight line's steady window, a duty cycle's whole run)",
     "accel_peak_torque": "peak torque with the speed ramp",
     "top_speed": "top speed",
     "torque_at_top_speed": "torque at top speed (within 10%)",
@@ -709,7 +709,7 @@ def ratio_sections(s: Sizing) -> list[tuple[str, str, Any]]:
                      f"{shaft.get('efficiency', float('nan')):g}): torque / (eta N), speed x N, power / eta. Each "
                      f"figure is the value {s.share:.0%} of the variants need at most (nearest rank), on the worst "
                      "of the four wheels, and names the variant that sets it."),
-        ("Requirement sheet: the steering (at the hinge)", "table", sheet_table(steer, s.params)),
+        ("Requirement sheet: the steering (at the hinge)", "table", sheet_table(steer, s.params, "at the hinge")),
     ]  # fmt: skip
     would = "; ".join(f"{m}: {line}" for m, line in req.get("would", {}).items())
     near = req.get("nearest")
