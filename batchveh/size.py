@@ -40,8 +40,6 @@ from batchveh.cli import run_main
 from batchveh.config import ConfigError, OneLineParser
 
 EXIT_OK, EXIT_INPUT, EXIT_EXISTS, EXIT_INTERRUPTED = 0, 2, 3, 130
-NEAR = 0.05  # without a screen choice, the loop runs the motors within 5 points of the best screen coverage
-BATCH = 2  # the loop's drives per batch where the screen cannot say which covers (`batch_of`)
 HOT_RUNS = 2  # in_loop's runs per candidate (`iterations` 1): from ambient, then from the hot start in closed form
 
 
@@ -84,189 +82,6 @@ def battery_of(path: str) -> Any:
 
     data = load_yaml(path)
     return load_battery(path) if isinstance(data, dict) and "battery" in data else None
-
-
-def _column(df: Any, name: str, default: float) -> Any:
-    """A swept parameter's values per row of `df`, or its fixed value where it was not swept."""
-    import numpy as np
-
-    return df[name].to_numpy(float) if name in df else np.full(len(df), float(default))
-
-
-def wheel_accel(spec: Any, df: Any) -> Any:
-    """Each variant's imposed wheel acceleration over its speed ramp (rad/s^2), for the screen's rotor inertia:
-    speed / (radius x ramp time), where the scenario has both; else 0."""
-    import numpy as np
-
-    sc = spec.scenario
-    if not hasattr(sc, "speed_kmh") or not getattr(sc, "ramp_time", 0):
-        return 0.0
-    ramp = np.maximum(_column(df, "ramp_time", sc.ramp_time), 1e-9)
-    return _column(df, "speed_kmh", sc.speed_kmh) / 3.6 / _column(df, "wheel.radius", spec.vehicle.wheel.radius) / ramp
-
-
-def ramp_of(spec: Any, df: Any) -> dict[str, Any] | None:
-    """The straight line's ramp for the screen (`motors.screen_one`'s `ramp`), each variant's own: the imposed
-    wheel speed (rad/s), what each drive accelerates without its rotor (kg m^2: a quarter of the vehicle's mass,
-    the payload's with it, at the wheel's radius, and the wheel as a solid disc), the ramp time, the window, the
-    drive law, and the four wheels' grip at the wheel, mu M g cos(slope) r (N m); None for a scenario without a
-    speed ramp (a mission, a steer in place)."""
-    import numpy as np
-
-    sc = spec.scenario
-    if sc.kind == "mission":
-        return mission_ramp(spec, df)
-    if sc.kind != "straight_line" or not getattr(sc, "ramp_time", 0):
-        return None
-    v = spec.vehicle
-
-    def col(name: str, default: float) -> Any:
-        return _column(df, name, default)
-
-    radius = col("wheel.radius", v.wheel.radius)
-    mass = _mass(spec, df)
-    total = float(sc.total_time)
-    return {
-        "speed": col("speed_kmh", sc.speed_kmh) / 3.6 / radius,
-        "inertia": _drive_inertia(spec, df),
-        "ramp_time": col("ramp_time", sc.ramp_time),
-        "window": tuple(spec.window) if spec.window is not None else (total / 2, total),
-        "law": sc.drive_law,
-        "grip": col("friction", sc.friction)
-        * mass
-        * col("gravity", sc.gravity)
-        * np.cos(np.deg2rad(col("slope_deg", sc.slope_deg)))
-        * radius,
-    }
-
-
-def _mass(spec: Any, df: Any) -> Any:
-    """Each variant's vehicle mass (kg): chassis, four wheels and hubs, payload."""
-    v = spec.vehicle
-    wheel = _column(df, "wheel.mass", v.wheel.mass)
-    mass = _column(df, "chassis.mass", v.chassis.mass) + 4 * (wheel + _column(df, "hub.mass", v.hub.mass))
-    return mass + _column(df, "payload.mass", v.payload.mass)
-
-
-def _drive_inertia(spec: Any, df: Any) -> Any:
-    """What each drive accelerates without its rotor (kg m^2, per variant): a quarter of the vehicle at the wheel's
-    radius, and the wheel as a solid disc."""
-    v = spec.vehicle
-    radius = _column(df, "wheel.radius", v.wheel.radius)
-    return _mass(spec, df) * radius**2 / 4 + 0.5 * _column(df, "wheel.mass", v.wheel.mass) * radius**2
-
-
-ACCELERATING = ("accelerate",)  # a duty cycle's segments the screen's ramp model reads (`segment_ramp`)
-CARRIES_SPEED = ("accelerate", "cruise", "climb")  # segments that end at their own speed (else from standstill)
-STANDING = ("steer",)  # segments that ask the drives to hold their wheels still while the steering turns them
-
-
-def mission_ramp(spec: Any, df: Any) -> dict[str, Any]:
-    """A duty cycle's ramp for the screen (`analysis.motors.segment_ramp`): each accelerating segment's transition,
-    duration and the span it starts from (the previous one where it ends at its speed, else None: standstill),
-    the spans where the vehicle stands while it steers (`standing`: a drive's peak there is not judged), each
-    variant's drive inertia (`_drive_inertia`) and the servo's armature."""
-    from batchveh.model.missions import mission_of
-
-    m = mission_of(spec.scenario)
-    spans = m.spans[1:]
-    segments = {}
-    for k, seg in enumerate(m.segments):
-        if seg.kind not in ACCELERATING:
-            continue
-        before = m.segments[k - 1].kind if k else None
-        segments[spans[k]] = {
-            "transition": m.transition(k),
-            "duration": (m.boundaries[k + 1] - m.boundaries[k]) * m.dt,
-            "previous": spans[k - 1] if before in CARRIES_SPEED else None,
-        }
-    standing = [spans[k] for k, seg in enumerate(m.segments) if seg.kind in STANDING]
-    return {
-        "segments": segments,
-        "standing": standing,
-        "inertia": _drive_inertia(spec, df),
-        "armature": spec.vehicle.motors.armature,
-    }
-
-
-def steering(table: Any, share: float) -> str:
-    """The steering motor to start the loop with: the smallest that the steering's screen (`table`, the screen of
-    group 'steer', whose `peak` reason holds the demand's low-pass peak against the current's bound) passes on
-    `share` of the variants; else the largest. The loop then confirms it (`size`)."""
-    ok = table[table["coverage"] >= share]
-    return (ok if len(ok) else table)["motor"].iloc[0 if len(ok) else -1]
-
-
-def not_run(table: Any, runs: list[str], ran: list[str], chosen: str | None, best: str | None) -> dict[str, str]:
-    """Why each motor of the screen's `table` did not run in the loop: {name: why}."""
-    ranked = list(table["motor"])
-    cover = dict(zip(table["motor"], table["coverage"], strict=True))
-    out = {}
-    for name in ranked:
-        if name in ran:
-            continue
-        if chosen is not None and ranked.index(name) > ranked.index(chosen):
-            out[name] = f"a smaller motor ({chosen}) covers in the loop"
-        elif name not in runs and best is None:
-            out[name] = f"screen {cover[name]:.1%}, more than {NEAR * 100:.0f} points below the best screen coverage"
-        elif name not in runs and best is not None and ranked.index(name) == ranked.index(best) - 1:
-            out[name] = (
-                f"screen {cover[name]:.1%}, more than {NEAR * 100:.0f} points below the share: the loop starts at "
-                f"the screen's choice ({best})"
-            )
-        elif name not in runs:
-            out[name] = f"screen {cover[name]:.1%}: below the loop's first, the one under the screen's {best}"
-        else:
-            out[name] = "not reached"
-    return out
-
-
-def batch_of(pending: list[str], best: str | None) -> list[str]:
-    """The drives of the loop's next batch (run as one sweep, `in_loop`), from `pending` (smallest first): up
-    to the screen's choice `best` where it is pending (the one below it and it, as the screen expects it to
-    cover), else the next BATCH of them (the screen has no choice, or the loop found it short: it cannot tell
-    which covers). The loop reads the batch in order and stops at the first that covers, so its verdicts are those of
-    one candidate at a time; a batch's drives after the first that covers ran for nothing."""
-    return pending[: pending.index(best) + 1] if best in pending else pending[:BATCH]
-
-
-def read_batch(batch: list[str], table: Any, steer: str, ranked_steer: list[str], share: float) -> dict[str, Any]:
-    """A batch's loop table (`in_loop`'s, a row per drive of `batch`, in order) read as one drive at a time would
-    be: each row is the steering's run (`steer_rows`); where the steering `steer` misses more than 1 - share and
-    `ranked_steer` holds a larger one, the steering walks up and the batch stops there (that drive runs again with
-    it); else the row is the drive's (`rows`, `judged`), and the first that covers `share` is `chosen`. `done`:
-    the drives of the batch read to the end (the pending list goes on after them)."""
-    out: dict[str, Any] = {"steer_rows": [], "rows": [], "judged": [], "chosen": None, "steer": steer}
-    out["done"] = len(batch)
-    for j, name in enumerate(batch):
-        row = table.iloc[[j]].reset_index(drop=True)
-        out["steer_rows"].append(row.assign(drive=name))
-        larger = ranked_steer[ranked_steer.index(out["steer"]) + 1 :]
-        if row["steer_coverage"].iloc[0] < share and larger:
-            out["steer"], out["done"] = larger[0], j  # the steering's own miss: the next larger, from this drive
-            break
-        out["rows"].append(row)
-        out["judged"].append(name)
-        if row["coverage"].iloc[0] >= share:
-            out["chosen"] = name
-            break
-    return out
-
-
-def candidates(screen_table: Any, best: str | None, share: float | None = None) -> list[str]:
-    """The motors to run in the loop, smallest first: from the one next below the screen's choice (the screen is
-    conservative: the loop may take it) upwards, that one only where its screen coverage lies within NEAR of
-    `share` (None: always; screen and loop agree within 2 points on every vehicle validated, so a motor the screen
-    puts further below cannot cover in the loop); without a screen choice, those within NEAR of the best screen
-    coverage (the loop decides between them)."""
-    ranked = list(screen_table["motor"])
-    cover = dict(zip(ranked, screen_table["coverage"], strict=True))
-    if best is None:
-        top = screen_table["coverage"].max()
-        return [m for m in ranked if cover[m] >= top - NEAR]
-    i = ranked.index(best)
-    below = i > 0 and (share is None or cover[ranked[i - 1]] >= share - NEAR)
-    return ranked[i - 1 if below else i :]
 
 
 def inputs_digest(catalogue: bytes, run_spec: Any, table: dict, backend: str | None) -> str:
@@ -399,23 +214,44 @@ def trace(spec: Any, catalogue: str, drive: str, steer: str, values: dict[str, f
     return t
 
 
-def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
-    """The three phases and the report (the module's docstring); returns (the Sizing, the report's paths).
-    `executor(spec, n)`: a fresh executor for each sweep (the servo's and each run in the loop), or None: this
-    process (`main` makes it from --executor)."""
-    import platform
+@dataclasses.dataclass
+class Session:
+    """A sizing session's state, filled phase by phase (`size`): the inputs, then each phase's tables."""
 
-    import mujoco
-    import numpy as np
-    from tqdm.auto import tqdm
+    args: Any
+    spec: Any
+    cat: dict[str, Any]  # the catalogue: every (motor, ratio) by name
+    battery: Any
+    catalogue: str  # the catalogue's absolute path (the loop's runs read it, on Ray's workers too)
+    out: Path
+    executor: Any
+    bar: Any = None
+    n: int = 0  # the conditions
+    per: int = 1  # the runs of each condition a candidate takes in the loop
+    walls: dict[str, float] = dataclasses.field(default_factory=dict)
+    df: Any = None  # the servo sweep's rows: the demand
+    span: str | None = None
+    common: dict[str, Any] = dataclasses.field(default_factory=dict)  # the screen's arguments of both groups
+    drive_kw: dict[str, Any] = dataclasses.field(default_factory=dict)  # and the drives' (rotor, ramp)
+    ratios: Any = None  # the screen of every (motor, ratio), drives; `windows`, `table` (one ratio a motor), `best`
+    wins: Any = None
+    table: Any = None
+    best: str | None = None
+    steer_ratios: Any = None
+    steer_wins: Any = None
+    steer_table: Any = None
+    steer: str = ""
+    runs: list[str] = dataclasses.field(default_factory=list)  # the drives the loop may run, smallest first
+    rows: list[Any] = dataclasses.field(default_factory=list)
+    steer_rows: list[Any] = dataclasses.field(default_factory=list)
+    detail: dict[str, Any] = dataclasses.field(default_factory=dict)
+    chosen: str | None = None
 
-    import batchveh
-    from batchveh.analysis.motors import IN_LOOP_REASONS, STEER_REASONS, best_in_loop, in_loop, screen
+
+def start(args: Any, executor: Any) -> Session:
+    """The inputs read and checked before any simulation: the spec, the catalogue and its battery, --steer,
+    --share, the report's folder."""
     from batchveh.model.motors import pick
-    from batchveh.sizing import report
-    from batchveh.sizing.windows import best_of, loop_table, windows, with_entry
-    from batchveh.sweep import count_variants, run_sweep
-    from batchveh.sweeping.results import load
     from batchveh.sweeping.spec import load_spec
 
     spec = load_spec(args.spec)
@@ -423,7 +259,6 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
     # the battery's energy and power are checked in the loop, apart (its limits are not a motor's); a bad
     # `battery:` section is one line here, before any simulation
     battery = battery_of(args.catalogue)
-    catalogue = str(Path(args.catalogue).resolve())  # the runs read it, on Ray's workers too: a path from anywhere
     if args.steer is not None:
         pick(cat, args.steer, "--steer")
     if not 0 < args.share <= 1:
@@ -431,99 +266,129 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
     out = Path(args.out or f"{spec.output}-sizing")
     if (out / "report.md").exists() and not args.overwrite:
         raise FileExistsError(f"{out} holds a report; give --overwrite to replace it (its servo sweep is reused)")
-    demand = servo_spec(spec, out)
-    n = count_variants(demand, args.limit)
-    per = loop_runs(spec)
-    bar = tqdm(total=n * (1 + per * 2), unit="run", disable=args.quiet, desc=f"{spec.name}: servo sweep")
-    walls: dict[str, float] = {}
+    return Session(args, spec, cat, battery, str(Path(args.catalogue).resolve()), out, executor)
+
+
+def servo_phase(ses: Session) -> None:
+    """The servo sweep (the demand) into OUT/servo, resumed where it is there; its rows."""
+    from tqdm.auto import tqdm
+
+    from batchveh.sweep import count_variants, run_sweep
+    from batchveh.sweeping.results import load
+
+    args, spec = ses.args, ses.spec
+    demand = servo_spec(spec, ses.out)
+    ses.n, ses.per = count_variants(demand, args.limit), loop_runs(spec)
+    ses.bar = tqdm(total=ses.n * (1 + ses.per * 2), unit="run", disable=args.quiet, desc=f"{spec.name}: servo sweep")
     t0 = time.perf_counter()
     try:
         servo_run = run_sweep(
             demand,
-            out=out / "servo",
+            out=ses.out / "servo",
             backend=args.backend,
             resume=True,
             limit=args.limit,
             progress=False,
-            executor=executor(demand, n) if executor is not None else None,
+            executor=ses.executor(demand, ses.n) if ses.executor is not None else None,
         )
     except ConfigError as err:
         raise ConfigError(
-            f"{err} (the servo sweep's results in {out / 'servo'}: remove them or give another --out)"
+            f"{err} (the servo sweep's results in {ses.out / 'servo'}: remove them or give another --out)"
         ) from None
-    unwritten(servo_run, out / "servo")
-    df = load(out / "servo")
-    walls["servo sweep"] = time.perf_counter() - t0
-    walls["servo sweep: its chunks"] = servo_run["wall_s"]  # the rest: the engine's start and the rows' load
-    bar.update(n)
-    bar.set_description(f"{spec.name}: screen")
+    unwritten(servo_run, ses.out / "servo")
+    ses.df = load(ses.out / "servo")
+    ses.walls["servo sweep"] = time.perf_counter() - t0
+    ses.walls["servo sweep: its chunks"] = servo_run["wall_s"]  # the rest: the engine's start and the rows' load
+    ses.bar.update(ses.n)
+
+
+def screen_phase(ses: Session) -> None:
+    """Every (motor, ratio) of the catalogue against the demand, drives and steering; each motor's window; the
+    table the loop walks (one ratio a motor), the screen's choice and the steering to start with."""
+    from batchveh.analysis.motors import mission_segments, screen
+    from batchveh.sizing.plan import candidates, steering
+    from batchveh.sizing.ramps import ramp_of, wheel_accel
+    from batchveh.sizing.windows import best_of, loop_table, windows, with_entry
+
+    args, spec, df, cat = ses.args, ses.spec, ses.df, ses.cat
+    ses.bar.set_description(f"{spec.name}: screen")
     t0 = time.perf_counter()
-    accel = wheel_accel(spec, df)
-    armature = spec.vehicle.motors.armature
-    params = list(spec.params)
-    ramp = ramp_of(spec, df)
     span = args.span or ("mission" if spec.scenario.kind == "mission" else None)  # a duty cycle: the whole of it
     if span is not None and f"{span}_drive_lf_rms" not in df:
-        from batchveh.analysis.motors import mission_segments
-
         allowed = ", ".join(["mission", *mission_segments(df)]) if "mission_drive_lf_rms" in df else "none"
         raise ConfigError(f"--span: {span!r} is not a span of {args.spec}'s results; allowed: {allowed}")
-    common = {"share": args.share, "params": params, "duty": spec.duty, "span": span}
+    ses.span = span
+    ses.common = {"share": args.share, "params": list(spec.params), "duty": spec.duty, "span": span}
+    ses.drive_kw = {"armature": spec.vehicle.motors.armature, "accel": wheel_accel(spec, df), "ramp": ramp_of(spec, df)}
     # every (motor, ratio) of the catalogue, then each motor's window; the loop walks one ratio a motor
-    _, ratios, _ = screen(df, cat, armature=armature, accel=accel, ramp=ramp, **common)
-    wins = windows(ratios, cat, args.share)
-    table, best = loop_table(ratios, wins), best_of(wins)
-    _, steer_ratios, _ = screen(df, cat, group="steer", **common)
-    steer_wins = windows(steer_ratios, cat, args.share)
-    steer_table = loop_table(steer_ratios, steer_wins)
+    _, ses.ratios, _ = screen(df, cat, **ses.drive_kw, **ses.common)
+    ses.wins = windows(ses.ratios, cat, args.share)
+    ses.table, ses.best = loop_table(ses.ratios, ses.wins), best_of(ses.wins)
+    _, ses.steer_ratios, _ = screen(df, cat, group="steer", **ses.common)
+    ses.steer_wins = windows(ses.steer_ratios, cat, args.share)
+    ses.steer_table = loop_table(ses.steer_ratios, ses.steer_wins)
     if args.steer is not None:  # the (motor, ratio) given stands for its motor
-        steer_table = with_entry(steer_table, steer_ratios, args.steer, cat)
-    steer = args.steer or steering(steer_table, args.share)
-    walls["screen"] = time.perf_counter() - t0
-    runs = candidates(table, best, args.share)
-    rows, detail, chosen, steer_rows = [], {}, None, []
-    ranked_steer = list(steer_table["motor"])
-    from batchveh.engines import resolve_backend
+        ses.steer_table = with_entry(ses.steer_table, ses.steer_ratios, args.steer, cat)
+    ses.steer = args.steer or steering(ses.steer_table, args.share)
+    ses.runs = candidates(ses.table, ses.best, args.share)
+    ses.walls["screen"] = time.perf_counter() - t0
 
+
+def loop_phase(ses: Session) -> None:
+    """The candidates in the loop, a batch at a time, smallest first, until one covers (`sizing.plan`); then each
+    motor run there screened again over the variants its run judged."""
+    import pandas as pd
+
+    from batchveh.analysis.motors import in_loop, screen
+    from batchveh.engines import resolve_backend
+    from batchveh.sizing.plan import batch_of, read_batch
+
+    args, spec, n, per, bar = ses.args, ses.spec, ses.n, ses.per, ses.bar
+    ranked_steer = list(ses.steer_table["motor"]) if args.steer is None else [ses.steer]
     looped = resolve_backend(args.backend or spec.backend)
     looped = "mujoco" if looped == "mjx" else looped  # MJX's JAX implementation has no dcmotor: MuJoCo C runs it
-    runner = sweep_runner(out / "loop", catalogue, looped, executor)
+    runner = sweep_runner(ses.out / "loop", ses.catalogue, looped, ses.executor)
     t0 = time.perf_counter()
-    pending = list(runs)
-    while pending and chosen is None:  # the drives smallest first, a batch at a time (`batch_of`)
-        batch = batch_of(pending, best)
+    pending = list(ses.runs)
+    while pending and ses.chosen is None:  # the drives smallest first, a batch at a time (`batch_of`)
+        batch = batch_of(pending, ses.best)
         bar.total = bar.n + n * per * len(batch)
-        bar.set_description(f"{spec.name}: in the loop, {', '.join(batch)}, steering {steer}")
+        bar.set_description(f"{spec.name}: in the loop, {', '.join(batch)}, steering {ses.steer}")
         bar.refresh()
         _, t, d = in_loop(
-            spec, df, catalogue, batch, steer=steer, share=args.share, duty=spec.duty, stop_at_first=False,
-            run=runner, battery=battery, battery_apart=True,
+            spec, ses.df, ses.catalogue, batch, steer=ses.steer, share=args.share, duty=spec.duty,
+            stop_at_first=False, run=runner, battery=ses.battery, battery_apart=True,
         )  # fmt: skip
         bar.update(n * per * len(batch))
-        read = read_batch(batch, t, steer, ranked_steer if args.steer is None else [steer], args.share)
-        steer_rows += read["steer_rows"]
-        rows += read["rows"]
-        detail.update({name: d[name] for name in read["judged"]})
-        chosen, steer, pending = read["chosen"], read["steer"], pending[read["done"] :]
+        read = read_batch(batch, t, ses.steer, ranked_steer, args.share)
+        ses.steer_rows += read["steer_rows"]
+        ses.rows += read["rows"]
+        ses.detail.update({name: d[name] for name in read["judged"]})
+        ses.chosen, ses.steer, pending = read["chosen"], read["steer"], pending[read["done"] :]
     bar.total = bar.n
     bar.set_description(f"{spec.name}: report")
     bar.refresh()
-    walls["in the loop"] = time.perf_counter() - t0
-    walls["in the loop: its chunks"] = sum(runner.chunks_s)
-    import pandas as pd
-
-    for name, run in detail.items():  # a motor run in the loop: its screen over the variants that run judged
-        _, one, _ = screen(
-            df, {name: cat[name]}, armature=armature, accel=accel, ramp=ramp, judged=run["judged"], **common
-        )
+    ses.walls["in the loop"] = time.perf_counter() - t0
+    ses.walls["in the loop: its chunks"] = sum(runner.chunks_s)
+    table = ses.table
+    for name, run in ses.detail.items():  # a motor run in the loop: its screen over the variants that run judged
+        _, one, _ = screen(ses.df, {name: ses.cat[name]}, judged=run["judged"], **ses.drive_kw, **ses.common)
         table = pd.concat([table[table["motor"] != name], one])
-    order = {name: i for i, name in enumerate(wins["chosen"])}  # the windows' order: smallest motor first
+    order = {name: i for i, name in enumerate(ses.wins["chosen"])}  # the windows' order: smallest motor first
     table = table.assign(_o=[order.get(m, len(order)) for m in table["motor"]]).sort_values("_o", kind="stable")
-    table = table.drop(columns="_o").reset_index(drop=True)
+    ses.table = table.drop(columns="_o").reset_index(drop=True)
 
-    loop = pd.concat(rows, ignore_index=True)
-    hottest = chosen or best_in_loop(loop)
-    d = detail[hottest]
+
+def hottest_phase(ses: Session, loop: Any) -> tuple[str, dict[str, float], str, Any]:
+    """The chosen drive's (or the best's) hottest variant judged: its name, its parameters, whether the motor
+    covers it and why not, and its time series from its own hot start (`trace`)."""
+    import numpy as np
+
+    from batchveh.analysis.motors import IN_LOOP_REASONS, STEER_REASONS, best_in_loop
+
+    spec, df = ses.spec, ses.df
+    hottest = ses.chosen or best_in_loop(loop)
+    d = ses.detail[hottest]
     temps = d[[f"drive_{c}_winding_temp_peak" for c in ("lf", "rf", "lr", "rr")]].max(axis=1).to_numpy()
     if d["judged"].any():  # the hottest of the variants the drive is judged on (not a run its steering lost)
         temps = np.where(d["judged"].to_numpy(bool), temps, -np.inf)
@@ -531,44 +396,62 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
     values = {k: float(df[k].iloc[worst]) for k in spec.params if np.issubdtype(df[k].dtype, np.number)}
     # its own hot start: back to back, a run ends where it started (in_loop's last run, within its residual)
     ends = d[[f"drive_{c}_winding_temp_end" for c in ("lf", "rf", "lr", "rr")]].max(axis=1).to_numpy()
-    c = cat[hottest].resolved()
+    c = ses.cat[hottest].resolved()
     rest = spec.stats_config().n_steps * float(spec.scenario.time_step) * (1.0 / spec.duty - 1.0)
     cooled = np.exp(-rest / c["t_T"]) if c["t_T"] > 0 else 0.0  # over the rest between runs, at a duty below 1
     rise = max(float(ends[worst]) - c["T_amb"], 0.0) * cooled
     reasons = [r for r in IN_LOOP_REASONS if bool(d[f"fails_{r}"].iloc[worst])]
     reasons += [f"steering {r}" for r in STEER_REASONS if bool(d[f"steer_fails_{r}"].iloc[worst])]
-    worst_note = f"{hottest} misses it: {', '.join(reasons)}" if reasons else f"{hottest} covers it"
+    note = f"{hottest} misses it: {', '.join(reasons)}" if reasons else f"{hottest} covers it"
     t0 = time.perf_counter()
-    series = trace(spec, args.catalogue, hottest, steer, values, rise)
-    walls["trace"] = time.perf_counter() - t0
-    needs = requirement_sheets(df, spec, span, args.share, cat, chosen or hottest, steer, wins)
-    s = report.Sizing(
+    series = trace(spec, ses.args.catalogue, hottest, ses.steer, values, rise)
+    ses.walls["trace"] = time.perf_counter() - t0
+    return hottest, values, note, series
+
+
+def record(ses: Session) -> Any:
+    """The session's result (`sizing.report.Sizing`): every phase's tables, the requirement sheets, the versions."""
+    import platform
+
+    import mujoco
+    import pandas as pd
+
+    import batchveh
+    from batchveh.sizing import report
+    from batchveh.sizing.plan import not_run
+    from batchveh.sizing.requirements import sheets
+
+    args, spec = ses.args, ses.spec
+    loop = pd.concat(ses.rows, ignore_index=True)
+    hottest, values, note, series = hottest_phase(ses, loop)
+    needs = sheets(ses.df, spec, ses.span, args.share, ses.cat, ses.chosen or hottest, ses.steer, ses.wins)
+    return report.Sizing(
         name=spec.name,
         spec_text=Path(args.spec).read_text(),
         params=list(spec.params),
-        servo=df,
-        screen=table,
+        servo=ses.df,
+        screen=ses.table,
         loop=loop,
-        detail=detail,
-        chosen=chosen,
-        steer=steer,
+        detail=ses.detail,
+        chosen=ses.chosen,
+        steer=ses.steer,
         share=args.share,
-        steer_screen=steer_table,
-        steer_loop=pd.concat(steer_rows, ignore_index=True),
-        not_run=not_run(table, runs, list(loop["motor"]), chosen, best),
+        steer_screen=ses.steer_table,
+        steer_loop=pd.concat(ses.steer_rows, ignore_index=True),
+        not_run=not_run(ses.table, ses.runs, list(loop["motor"]), ses.chosen, ses.best),
         duty=spec.duty,
-        span=span,
+        span=ses.span,
         steer_given=args.steer is not None,
-        ratios=ratios,
-        windows=wins,
-        steer_ratios=steer_ratios,
-        steer_windows=steer_wins,
+        ratios=ses.ratios,
+        windows=ses.wins,
+        steer_ratios=ses.steer_ratios,
+        steer_windows=ses.steer_wins,
         requirements=needs,
-        catalogue=cat,
-        battery=battery,
+        catalogue=ses.cat,
+        battery=ses.battery,
         trace=series,
         worst=values,
-        worst_note=worst_note,
+        worst_note=note,
         versions={
             "batchveh": batchveh.__version__,
             "MuJoCo": mujoco.__version__,
@@ -576,41 +459,24 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
             "machine": f"{platform.machine()}, {__import__('os').cpu_count()} CPUs",
             "date": time.strftime("%Y-%m-%d %H:%M"),
         },
-        wall_s=walls,
+        wall_s=ses.walls,
     )
-    paths = report.write(out, s)
-    bar.close()
+
+
+def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
+    """The session (the module's docstring), one phase after another, and the report; returns (the Sizing, the
+    report's paths). `executor(spec, n)`: a fresh executor for each sweep (the servo's and each run in the loop),
+    or None: this process (`main` makes it from --executor)."""
+    from batchveh.sizing import report
+
+    ses = start(args, executor)
+    servo_phase(ses)
+    screen_phase(ses)
+    loop_phase(ses)
+    s = record(ses)
+    paths = report.write(ses.out, s)
+    ses.bar.close()
     return s, paths
-
-
-def requirement_sheets(
-    df: Any, spec: Any, span: str | None, share: float, cat: dict, drive: str, steer: str, wins: Any
-) -> dict[str, Any]:
-    """The requirement sheet (`sizing.requirements`): the drive's at the wheel and at the shaft of `drive`, the
-    steering's at the hinge and at the shaft of `steer`; with each motor's shortfall against the drive's sheet at
-    the ratio where it comes nearest (`would`: {motor: line}) and the (motor, ratio) nearest to covering."""
-    from batchveh.sizing import requirements
-
-    params = list(spec.params)
-    out = {
-        "drive": requirements.sheet(df, "drive", span, spec.duty, share, params, cat[drive]),
-        "steer": requirements.sheet(df, "steer", span, spec.duty, share, params, cat[steer]),
-    }
-    wheel = out["drive"]["at_wheel"]
-    by_motor: dict[str, list] = {}
-    for m in cat.values():
-        by_motor.setdefault(m.motor_name, []).append(m)
-    # each motor at the ratio where it comes nearest the sheet: the least of its worst factor
-    out["would"] = {  # smallest motor first, as the windows
-        name: requirements.short_line(
-            min(by_motor[name], key=lambda m: max(requirements.shortfall(m, wheel).values())), wheel
-        )
-        for name in wins["motor_name"]
-    }
-    near = wins.sort_values("chosen_coverage", ascending=False, kind="stable").iloc[0]
-    out["nearest"] = {"motor": near["chosen"], "ratio": near["chosen_ratio"], "coverage": near["chosen_coverage"],
-                      "binding": near["binding"] or near["closed_below"]}  # fmt: skip
-    return out
 
 
 def verdict_line(s: Any, paths: dict[str, Path]) -> str:

@@ -34,7 +34,7 @@ def main() -> None:
     import batchveh
     from batchveh.analysis.motors import screen
     from batchveh.model.motors import load_catalogue
-    from batchveh.size import ramp_of, wheel_accel
+    from batchveh.sizing.ramps import ramp_of, wheel_accel
     from batchveh.sizing.windows import windows
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])

@@ -46,11 +46,13 @@ LAYERS = {
     ),  # fmt: skip
     # how many variants run, where, and where the results go
     "sweeping": tuple(
-        f"sweeping.{m}" for m in ("", "storage", "spec", "results", "prestart", "chunks", "cluster", "gpus")
+        f"sweeping.{m}" for m in ("", "storage", "spec", "results", "prestart", "chunks", "retry", "cluster", "gpus")
     ),
     "analysis": tuple(f"analysis.{m}" for m in ("", "motors", "plot", "sensitivity")),
     # sizing a motor and its gear ratio from a servo sweep: the windows, the requirement sheet
-    "sizing": tuple(f"sizing.{m}" for m in ("", "windows", "requirements", "figures", "report")),
+    "sizing": tuple(
+        f"sizing.{m}" for m in ("", "ramps", "plan", "windows", "requirements", "figures", "report")
+    ),
     "face": ("",),  # batchveh/__init__.py: the public names
     "cli": ("sweep", "run", "render", "sensitivity", "size"),
 }

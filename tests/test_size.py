@@ -14,7 +14,8 @@ import pytest
 import yaml
 from conftest import schema_misses
 
-from batchveh.size import EXIT_EXISTS, EXIT_INPUT, EXIT_OK, candidates, main
+from batchveh.size import EXIT_EXISTS, EXIT_INPUT, EXIT_OK, main
+from batchveh.sizing.plan import candidates
 
 pytestmark = pytest.mark.xdist_group("size")  # one test worker: the module's shared fixtures run once
 
@@ -88,7 +89,7 @@ def test_the_choice_is_what_screen_and_in_loop_give_by_hand(sized):
     import batchveh
     from batchveh.analysis.motors import in_loop, screen
     from batchveh.model.motors import load_catalogue
-    from batchveh.size import ramp_of, wheel_accel
+    from batchveh.sizing.ramps import ramp_of, wheel_accel
     from batchveh.sizing.windows import best_of, loop_table, windows
 
     out, _, _ = sized
@@ -179,7 +180,7 @@ def test_the_loop_starts_below_the_screens_choice():
 def test_the_loop_batches_up_to_the_screens_choice():
     """The loop's first batch: the motor below the screen's choice and the choice; without a choice, or once
     the choice has run short, every motor left."""
-    from batchveh.size import batch_of
+    from batchveh.sizing.plan import batch_of
 
     assert batch_of(["a", "b", "c", "d"], "b") == ["a", "b"]
     assert batch_of(["b", "c", "d"], "b") == ["b"]
@@ -216,7 +217,7 @@ def test_a_killed_session_resumes_from_its_finished_chunks(sized, tmp_path):
 def test_the_loop_runs_the_motor_below_the_choice_only_where_its_screen_is_near_the_share():
     """The motor below the screen's choice runs in the loop where its screen coverage lies within 5 points of the
     share (the loop may take it); further below, the loop starts at the choice, and the report says why."""
-    from batchveh.size import not_run
+    from batchveh.sizing.plan import not_run
 
     table = pd.DataFrame({"motor": ["a", "b", "c", "d"], "coverage": np.array([0.2, 0.5, 0.99, 1.0])})
     assert candidates(table, "c", 0.99) == ["c", "d"]  # b: 50%, 49 points below
@@ -249,7 +250,7 @@ def test_a_loop_run_whose_inputs_change_gets_another_folder():
 
 
 def test_the_loop_batches_at_most_two_where_the_screen_cannot_say():
-    from batchveh.size import batch_of
+    from batchveh.sizing.plan import batch_of
 
     assert batch_of(["c", "d", "e"], None) == ["c", "d"]
     assert batch_of(["c", "d", "e"], "b") == ["c", "d"]  # the choice ran short: the next two
@@ -269,7 +270,7 @@ def test_a_batch_is_read_as_one_drive_at_a_time():
     """The loop's batch read in order: a steering miss walks the steering up and stops the batch at that drive (it
     runs again); a drive that covers is chosen and the drives after it are not reported; with the steering given
     (no larger to walk to), its miss is reported and the drive judged."""
-    from batchveh.size import read_batch
+    from batchveh.sizing.plan import read_batch
 
     table = pd.DataFrame({"coverage": [0.5, 0.995, 1.0], "steer_coverage": [1.0, 0.9, 1.0]})
     got = read_batch(["a", "b", "c"], table, "s1", ["s1", "s2"], 0.99)

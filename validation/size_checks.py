@@ -45,7 +45,8 @@ def by_hand(spec_path: Path, out: Path, share: float = 0.99) -> str | None:
     """The screen and the loop called by hand on the servo rows the command wrote."""
     import batchveh
     from batchveh.analysis.motors import in_loop, screen
-    from batchveh.size import candidates, ramp_of, wheel_accel
+    from batchveh.sizing.plan import candidates
+    from batchveh.sizing.ramps import ramp_of, wheel_accel
 
     spec = batchveh.load_spec(spec_path)
     df = batchveh.load(out / "servo")

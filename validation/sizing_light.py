@@ -195,7 +195,8 @@ def run(n: int = 400, out: Path = OUT, battery: bool = True) -> dict:
     ramp = df["ramp_time"] if "ramp_time" in df else float(spec.scenario.ramp_time)
     accel = 1.875 * df["speed_kmh"] / 3.6 / r / ramp
     t0 = time.perf_counter()
-    from batchveh.size import ramp_of  # the ramp a motor at its bound must follow, as the size command screens it
+    # the ramp a motor at its bound must follow, as the size command screens it
+    from batchveh.sizing.ramps import ramp_of
 
     best, table, failing = motors.screen(
         df, cat, share=SHARE, armature=spec.vehicle.motors.armature, accel=accel, ramp=ramp_of(spec, df)

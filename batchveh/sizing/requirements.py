@@ -188,3 +188,29 @@ def short_line(motor: Any, wheel: dict[str, dict[str, Any]]) -> str:
     top = wheel.get("top_speed", {}).get("value", 0.0) or 0.0
     at = f" at {top:.3g} rad/s" if key in ("voltage", "speed", "gear_speed") and top > 0 else ""
     return f"needs {f[key]:.2f}x {SHORT_TEXT[key]}{at}, at {motor.gear_ratio:g}:1"
+
+
+def sheets(
+    df: Any, spec: Any, span: str | None, share: float, cat: dict, drive: str, steer: str, wins: Any
+) -> dict[str, Any]:
+    """The session's requirement sheets: the drive's at the wheel and at the shaft of `drive`, the
+    steering's at the hinge and at the shaft of `steer`; with each motor's shortfall against the drive's sheet at
+    the ratio where it comes nearest (`would`: {motor: line}) and the (motor, ratio) nearest to covering."""
+    params = list(spec.params)
+    out = {
+        "drive": sheet(df, "drive", span, spec.duty, share, params, cat[drive]),
+        "steer": sheet(df, "steer", span, spec.duty, share, params, cat[steer]),
+    }
+    wheel = out["drive"]["at_wheel"]
+    by_motor: dict[str, list] = {}
+    for m in cat.values():
+        by_motor.setdefault(m.motor_name, []).append(m)
+    # each motor at the ratio where it comes nearest the sheet: the least of its worst factor
+    out["would"] = {  # smallest motor first, as the windows
+        name: short_line(min(by_motor[name], key=lambda m: max(shortfall(m, wheel).values())), wheel)
+        for name in wins["motor_name"]
+    }
+    near = wins.sort_values("chosen_coverage", ascending=False, kind="stable").iloc[0]
+    out["nearest"] = {"motor": near["chosen"], "ratio": near["chosen_ratio"], "coverage": near["chosen_coverage"],
+                      "binding": near["binding"] or near["closed_below"]}  # fmt: skip
+    return out
