@@ -6,7 +6,12 @@ from __future__ import annotations
 
 from typing import Any
 
-NEAR = 0.05  # without a screen choice, the loop runs the motors within 5 points of the best screen coverage
+# the loop runs the motor below the screen's choice only where its screen lies within NEAR of the share, and,
+# without a choice, the motors within NEAR of the best screen coverage: screen and loop agreed within 0.33 points on
+# every vehicle and duty cycle validated (validation/results/sizing_vehicles.json, sizing_missions.json), and the
+# issue's bound is 2, so a motor the screen puts further below cannot cover in the loop (5 points before issue 61,
+# when screen and loop were 2 points apart on duty cycles)
+NEAR = 0.02
 BATCH = 2  # the loop's drives per batch where the screen cannot say which covers (`batch_of`)
 
 
