@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import sys
 import time
 from pathlib import Path
@@ -24,7 +25,7 @@ from batchveh.config import ConfigError, OneLineParser
 from batchveh.model import course
 from batchveh.model.params import base_params
 from batchveh.model.scenarios import SCENARIOS, Scenario, load_scenario
-from batchveh.model.vehicle import CORNERS, MOTORS, Vehicle, load_vehicle
+from batchveh.model.vehicle import CORNERS, MOTORS, Vehicle, geometry_line, load_vehicle
 from batchveh.stepping import stats
 from batchveh.stepping.batch import make_batch
 
@@ -133,7 +134,11 @@ def write(result: RunResult, out: Path, overwrite: bool = False) -> list[Path]:
     from batchveh.sweeping.storage import write_table
 
     fields = {name: {"unit": UNITS.get(name, "")} for name in result.series.columns}
-    meta = {"scenario": repr(result.scenario), "vehicle": repr(result.vehicle)}
+    meta = {
+        "scenario": repr(result.scenario),
+        "vehicle": repr(result.vehicle),
+        "steering_geometry": json.dumps(result.vehicle.steering_geometry()),  # each wheel's trail, scrub radius (m)
+    }
     write_table(annotated_table(result.series, fields, meta), target)
     from batchveh.analysis.plot import seed_figures
 
@@ -196,6 +201,7 @@ def _run(args: argparse.Namespace) -> int:
         f"{scenario.kind} on {args.backend}: {scenario.n_steps} steps in {time.perf_counter() - t0:.2f} s, "
         f"status {stats.STATUS[int(s['status_code'])]}, slip ratio {float(s['slip_ratio']):.3f}"
     )
+    print(geometry_line(vehicle))
     print("steady mean torque [N m]: " + ", ".join(f"{m} {float(s[m + '_mean']):.3f}" for m in MOTORS))
     closed_form = vehicle.total_mass * scenario.gravity * np.sin(np.deg2rad(scenario.slope_deg)) * vehicle.wheel.radius
     print(f"four-wheel drive sum {float(s['drive_sum_mean']):.3f} N m (m g sin(slope) r = {closed_form:.3f})")

@@ -36,6 +36,9 @@ def _table(names, n=N, seed=0):
             lo, hi = 0.0, 40.0
         elif k == "wheel.rolling_resistance":
             lo, hi = 0.0, 0.06
+        elif k.startswith("steering."):  # 0 is the chassis corner; a hinge's place is positive
+            corner = p["chassis.length" if k.endswith("_x") else "chassis.width"] / 2
+            lo, hi = 0.8 * corner, 1.2 * corner
         elif p[k] == 0:
             lo, hi = -0.1, 0.1
         else:

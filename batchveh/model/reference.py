@@ -34,7 +34,7 @@ ROOT = Path(__file__).resolve().parent.parent.parent
 OUT = ROOT / "docs" / "vehicle.md"
 CATALOGUE = ROOT / "notebooks" / "motors.yaml"  # the shipped catalogue: the registry's dcmotor names
 # the vehicle's groups, in the page's order; a new group of Vehicle must be placed here
-SECTIONS = ("chassis", "wheel", "hub", "payload", "motors", "tyre", "soil", "contact_model")
+SECTIONS = ("chassis", "wheel", "hub", "steering", "payload", "motors", "tyre", "soil", "contact_model")
 # motor keys that act under one motor model only (vehicle.mjcf, model/drive.py)
 SERVO_ONLY = (*params.GAINS, "motors.armature")
 DCMOTOR_ONLY = (*params.DRIVE, *params.START_RISE, "motors.catalogue", "motors.drive", "motors.steer",

@@ -32,7 +32,7 @@ import numpy as np
 
 from batchveh.config import ConfigError, did_you_mean, field, from_mapping, load_yaml
 from batchveh.model import course, laws
-from batchveh.model.vehicle import CORNER_SIGNS, CORNERS, MOTORS
+from batchveh.model.vehicle import CORNER_SIGNS, CORNERS, MOTORS, hinge_xy
 
 GRAVITY_PRESETS = {"earth": 9.81, "moon": 1.62, "mars": 3.71}
 _SX = np.array([CORNER_SIGNS[c][0] for c in CORNERS], float)
@@ -155,18 +155,21 @@ def _drive(sc: Scenario, target, p, t):
 
 
 def _axes(p):
-    """(4,) x and y of the steering axes in m, at the chassis corners."""
-    return _SX * p["chassis.length"] / 2, _SY * p["chassis.width"] / 2
+    """(4,) x and y of the steering axes in m: (+-steering.axis_x, +-steering.axis_y), the chassis corners where
+    those are 0 (vehicle.hinge_xy)."""
+    hx, hy = hinge_xy(p, jnp)
+    return _SX * hx, _SY * hy
 
 
 def _offset(p):
-    return p["wheel.y_cg"] - p["chassis.width"] / 2
+    """The wheel centre's distance outboard of its steering axis, m (the scrub radius)."""
+    return p["wheel.y_cg"] - hinge_xy(p, jnp)[1]
 
 
 def _wheel_from_axis(p):
     """(4,) x and y of each wheel centre from its steering axis at zero steer, m: a trail along the vehicle where
     the wheel is not on its axis's line, the offset outboard."""
-    return _SX * (p["wheel.x_cg"] - p["chassis.length"] / 2), _SY * _offset(p)
+    return _SX * (p["wheel.x_cg"] - hinge_xy(p, jnp)[0]), _SY * _offset(p)
 
 
 def axis_roll(p, steer_rate):

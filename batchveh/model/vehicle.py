@@ -3,9 +3,9 @@
 Frame and conventions (the seed's, see docs/physics.md, "Conventions"):
 - Z up, X forward, Y left. Lengths in m, masses in kg.
 - The vehicle is a chassis box on a free joint, four hubs on vertical steering
-  hinges at the chassis corners (+-length/2, +-width/2), and four wheel cylinders
-  on spin hinges about the hub's Y axis. Wheel centres sit at z = wheel radius,
-  touching the ground plane at z = 0.
+  hinges at (+-steering.axis_x, +-steering.axis_y), by default the chassis corners
+  (+-length/2, +-width/2), and four wheel cylinders on spin hinges about the hub's Y
+  axis. Wheel centres sit at z = wheel radius, touching the ground plane at z = 0.
 - Drive motor: positive angular speed rolls the wheel forward (+X); its torque is
   the torque on the wheel about +Y (hub frame) from its motor, positive when it
   drives the vehicle forward or up a slope.
@@ -83,6 +83,22 @@ class Hub:
     length: float = field(0.258, unit="m", gt=0)
     mass: float = field(11.1, unit="kg", gt=0)
     y_cg: float = field(0.226, unit="m", gt=0)
+
+
+@dataclass(frozen=True)
+class Steering:
+    """Where the four steering hinges (each hub's vertical joint) stand: at (+-axis_x, +-axis_y), in the frame of
+    wheel.x_cg and wheel.y_cg; 0, the default, puts a hinge at the chassis box's corner (chassis.length / 2,
+    chassis.width / 2), the seed's rule. A wheel whose contact is not on its hinge's line along the vehicle has a
+    trail, one outboard of it a scrub radius (`Vehicle.steering_geometry`; docs/physics.md, "Trail and scrub
+    radius")."""
+
+    axis_x: float = field(
+        0.0, unit="m", ge=0, doc="each steering hinge's distance ahead of / behind the centre (0: chassis.length / 2)"
+    )
+    axis_y: float = field(
+        0.0, unit="m", ge=0, doc="each steering hinge's distance left / right of the centre (0: chassis.width / 2)"
+    )
 
 
 @dataclass(frozen=True)
@@ -219,6 +235,8 @@ class Vehicle:
     hub: Hub = Hub()
     payload: Payload = Payload()
     motors: Motors = Motors()
+    # where the steering hinges stand (the chassis corners unless set)
+    steering: Steering = Steering()
     # 'ground': wheels touch the ground only (fast, the seed's intent); 'all': wheels also
     # touch each other and the hubs touch the ground
     contacts: Literal["ground", "all"] = "ground"
@@ -235,14 +253,73 @@ class Vehicle:
         return self.chassis.mass + 4 * (self.wheel.mass + self.hub.mass) + self.payload.mass
 
     @property
+    def hinge(self) -> tuple[float, float]:
+        """(x, y) in m of the front-left steering hinge (`steering.axis_x`, `steering.axis_y`, or the chassis
+        corner where 0); the other three mirror it."""
+        x, y = hinge_xy(self.flat_geometry())
+        return float(x), float(y)
+
+    def flat_geometry(self) -> dict[str, float]:
+        """The flat parameters `hinge_xy` and `steering_geometry_of` read."""
+        c, w, s = self.chassis, self.wheel, self.steering
+        return {"chassis.length": c.length, "chassis.width": c.width, "wheel.x_cg": w.x_cg, "wheel.y_cg": w.y_cg,
+                "steering.axis_x": s.axis_x, "steering.axis_y": s.axis_y}  # fmt: skip
+
+    @property
     def steer_offset(self) -> float:
-        """Lateral distance in m from a steering axis to its wheel centre (scrub radius)."""
-        return self.wheel.y_cg - self.chassis.width / 2
+        """Lateral distance in m from a steering axis to its wheel centre (scrub radius), outboard positive."""
+        return self.wheel.y_cg - self.hinge[1]
+
+    def steering_geometry(self) -> dict[str, dict[str, float]]:
+        """Each wheel's {'trail', 'scrub_radius'} in m at zero steer, CORNERS order (`steering_geometry_of`)."""
+        geo = steering_geometry_of(self.flat_geometry())
+        return {c: {k: float(v) for k, v in g.items()} for c, g in geo.items()}
 
     def validate(self, where: str = "vehicle") -> None:
         """Raise ConfigError where the parts do not fit together."""
         if self.wheel.radius <= self.hub.radius:
             raise ConfigError(f"{where}: wheel.radius {self.wheel.radius!r} must exceed hub.radius {self.hub.radius!r}")
+
+
+def hinge_xy(p: Any, xp: Any = np) -> tuple[Any, Any]:
+    """(x, y) in m of the front-left steering hinge from flat parameters (floats or (n,) arrays, numpy or jax;
+    `xp` the array module): `steering.axis_x` and `steering.axis_y` where positive, else the chassis corner,
+    `chassis.length / 2` and `chassis.width / 2`, bit for bit as before the keys existed. Corner c's hinge is at
+    (sx hx, sy hy), (sx, sy) = CORNER_SIGNS[c]."""
+    ax, ay = p["steering.axis_x"], p["steering.axis_y"]
+    return xp.where(ax > 0, ax, p["chassis.length"] / 2), xp.where(ay > 0, ay, p["chassis.width"] / 2)
+
+
+def steering_geometry_of(p: Any, xp: Any = np) -> dict[str, dict[str, Any]]:
+    """Each wheel's steering geometry at zero steer from flat parameters (`hinge_xy`), m, per corner:
+
+    - `trail`: the contact's distance behind its hinge along the vehicle (+X forward), sx (hx - wheel.x_cg). A
+      positive trail trails like a caster; a negative one leads the hinge when driving forward (the rear wheels
+      of a body longer than the wheelbase);
+    - `scrub_radius`: the contact's distance outboard of its hinge, wheel.y_cg - hy (the same on every corner).
+
+    Where the contact trails its hinge by a, a steer at a standstill drags it sideways: about mu N |a| at the
+    hinge on top of the patch's own scrub (docs/physics.md, "Trail and scrub radius")."""
+    hx, hy = hinge_xy(p, xp)
+    scrub = p["wheel.y_cg"] - hy
+    # + 0.0: a wheel on its hinge's line reads a trail of 0, not -0 (sx = -1 on the rear)
+    return {c: {"trail": CORNER_SIGNS[c][0] * (hx - p["wheel.x_cg"]) + 0.0, "scrub_radius": scrub} for c in CORNERS}
+
+
+def geometry_line(vehicle: Vehicle) -> str:
+    """The steering geometry of `vehicle` on one line, for a run's output and the size report."""
+    hx, hy = vehicle.hinge
+    s = vehicle.steering
+    where = {(False, False): "the chassis corners", (True, True): "steering.axis_x, steering.axis_y",
+             (True, False): "steering.axis_x; y at the chassis corner",
+             (False, True): "steering.axis_y; x at the chassis corner"}[(s.axis_x > 0, s.axis_y > 0)]  # fmt: skip
+    geo = vehicle.steering_geometry()
+    trail = ", ".join(f"{c} {g['trail']:+.3f}" for c, g in geo.items())
+    scrub = ", ".join(f"{c} {g['scrub_radius']:+.3f}" for c, g in geo.items())
+    return (
+        f"steering hinges at x +-{hx:.3f}, y +-{hy:.3f} m ({where}); trail (contact behind the hinge) {trail} m; "
+        f"scrub radius (contact outboard) {scrub} m"
+    )
 
 
 def load_vehicle(path: str | Path | None) -> Vehicle:
@@ -335,6 +412,7 @@ def mjcf(
     larger). With `v.contacts == "ground"`, wheels collide with the ground and nothing else.
     """
     c, w, h, p, mo = v.chassis, v.wheel, v.hub, v.payload, v.motors
+    hinge_x, hinge_y = v.hinge  # the front-left steering hinge (the chassis corner unless set)
     # rolling resistance: the drive joints' friction loss on the rigid contact; the slip tyre has its own
     c_rr = w.rolling_resistance if v.tyre.model == "rigid" else 0.0
     rolling = rolling_resistance_torque(c_rr, w.radius, v.total_mass, abs(gravity[2]))
@@ -365,7 +443,7 @@ def mjcf(
     bodies = []
     for name in CORNERS:
         sx, sy = CORNER_SIGNS[name]
-        axis = np.array([sx * c.length / 2, sy * c.width / 2])  # steering axis, world x, y
+        axis = np.array([sx * hinge_x, sy * hinge_y])  # steering axis, world x, y
         hub_local = np.array([sx * w.x_cg, sy * h.y_cg]) - axis
         wheel_local = np.array([sx * w.x_cg, sy * w.y_cg]) - axis
         bodies.append(f"""

@@ -47,13 +47,15 @@ from batchveh.model.params import (
 from batchveh.model.scenarios import Scenario, gravity_vector
 from batchveh.model.soil import check_ground
 from batchveh.model.tyres import DRIVE_ARMATURE, STEER_MASS
-from batchveh.model.vehicle import Vehicle, build_model, layout, rolling_resistance_torque
+from batchveh.model.vehicle import Vehicle, build_model, hinge_xy, layout, rolling_resistance_torque
 from batchveh.stepping import fields as structure
 
 # MjModel fields that are only fast-path flags: 0 ("not the same frame") is always correct
 SAMEFRAME = ("body_sameframe", "geom_sameframe", "site_sameframe")
 # two probes per structural parameter: value * scale + shift (both away from the base value)
 _PROBES = ((1.1, 0.011), (1.27, 0.023))
+# the parameters the steering hinges' place depends on (vehicle.hinge_xy)
+HINGE_INPUTS = ("steering.axis_x", "steering.axis_y", "chassis.length", "chassis.width")
 
 
 def model_for(vehicle: Vehicle, scenario: Scenario) -> mujoco.MjModel:
@@ -236,7 +238,8 @@ def drive_gains(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], params,
         return np.broadcast_to(np.asarray(params[k], float), (n,))
 
     wheel_load = drive.LOAD_FACTOR * mass * col("gravity") / 4
-    lead = col("wheel.x_cg") - col("chassis.length") / 2  # the contact from the steering axis, along the vehicle
+    hinge_x, _ = hinge_xy({k: col(k) for k in HINGE_INPUTS})
+    lead = col("wheel.x_cg") - hinge_x  # the contact from the steering axis, along the vehicle
     tyre = drive.tyre_moment_stiffness(col("tyre.slip_stiffness"), wheel_load, lead)[:, None]
     g = drive.gains(
         c,
@@ -267,7 +270,7 @@ def drive_armature(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], n: i
 def steer_mass(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], params, n: int) -> np.ndarray:
     """(n,) each variant's steering inertia (dof_M0 of the front-left steering hinge: the hub's and wheel's with
     the rotor's) over the squared lever of its wheel's contact about the steering axis (the wheel's centre from
-    the chassis corner, in the ground plane), kg: the mass the tyre's force meets through the steering (1e30
+    its hinge, vehicle.hinge_xy, in the ground plane), kg: the mass the tyre's force meets through the steering (1e30
     where the wheel sits on its axis)."""
     dof = layout(model).motor_dof[4]
     m0 = np.broadcast_to(fields.get("dof_M0", model.dof_M0), (n, model.nv))[:, dof]
@@ -275,7 +278,8 @@ def steer_mass(model: mujoco.MjModel, fields: Mapping[str, np.ndarray], params, 
     def p(k):
         return np.broadcast_to(np.asarray(params[k], float), (n,))
 
-    lever2 = (p("wheel.x_cg") - p("chassis.length") / 2) ** 2 + (p("wheel.y_cg") - p("chassis.width") / 2) ** 2
+    hinge_x, hinge_y = hinge_xy({k: p(k) for k in HINGE_INPUTS})
+    lever2 = (p("wheel.x_cg") - hinge_x) ** 2 + (p("wheel.y_cg") - hinge_y) ** 2
     return np.where(lever2 > 1e-12, m0 / np.maximum(lever2, 1e-12), 1e30)
 
 

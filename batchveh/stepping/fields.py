@@ -40,7 +40,7 @@ import numpy as np
 from batchveh.config import ConfigError
 from batchveh.model import course
 from batchveh.model.params import parameter_specs
-from batchveh.model.vehicle import CORNER_SIGNS, CORNERS, MOTORS, PAYLOAD_RADIUS, Vehicle, layout
+from batchveh.model.vehicle import CORNER_SIGNS, CORNERS, MOTORS, PAYLOAD_RADIUS, Vehicle, hinge_xy, layout
 
 MJEPS = 1e-14  # MuJoCo's mjEPS: a geom lighter than this adds no mass to its body (InertiaFromGeom)
 # the fields `vehicle_inputs` writes; mj_setConst reads them (or they are the compiler's alone)
@@ -198,10 +198,13 @@ def vehicle_inputs(m: mujoco.MjModel, p: Mapping[str, np.ndarray], n: int) -> di
     for key in ("qpos0", "qpos_spring"):
         out[key][:, q : q + 3] = centre
 
-    # hubs on the steering axes at the chassis corners, wheels on the hubs (vehicle.mjcf)
+    # hubs on the steering axes (steering.axis_x, axis_y; the chassis corners where 0), wheels on the hubs
+    # (vehicle.mjcf)
+    hinge_x, hinge_y = hinge_xy({k: col(k) for k in ("steering.axis_x", "steering.axis_y", "chassis.length",
+                                                       "chassis.width")})  # fmt: skip
     for k, corner in enumerate(CORNERS):
         sx, sy = CORNER_SIGNS[corner]
-        axis_x, axis_y = sx * length / 2, sy * width / 2
+        axis_x, axis_y = sx * hinge_x, sy * hinge_y
         hub, wheel = ids["hub"][k], ids["wheel"][k]
         out["body_pos"][:, hub] = g10(np.stack([axis_x - cx, axis_y - cy, col("wheel.radius") - cz], -1))
         hub_local = g10(np.stack([sx * w_x - axis_x, sy * h_y - axis_y, zero], -1))

@@ -194,12 +194,55 @@ def annotated_table(frame: pd.DataFrame, fields: dict[str, dict[str, str]], meta
 
 
 def part_table(frame: pd.DataFrame, param_units: dict[str, str], meta: dict[str, Any]) -> pa.Table:
-    """A sweep chunk's rows, with unit and description on every column and `meta` on the file."""
+    """A sweep chunk's rows, with unit and description on every column and `meta` on the file, with the steering
+    geometry of its spec's vehicle added (`steering_metadata`, under `steering_geometry`)."""
     fields = {}
     for name in frame.columns:
         unit, doc = column_doc(name, param_units)
         fields[name] = {"unit": unit, "description": doc}
+    if "spec" in meta and "steering_geometry" not in meta:
+        meta = {**meta, "steering_geometry": steering_metadata(meta["spec"], frame)}
     return annotated_table(frame, fields, {"batchveh": json.dumps(meta, default=str)})
+
+
+def steering_metadata(raw: Any, frame: pd.DataFrame | None = None) -> dict[str, Any] | str:
+    """Where a sweep's steering hinges stand and each wheel's trail and scrub radius, m (vehicle.steering_geometry_of):
+    its spec's vehicle (`raw`, the spec as read) with its fixed values, and each variant's where the part's rows
+    (`frame`) sweep a key that moves them: then [least, most] over the rows. A vehicle that cannot be read back
+    here (a YAML path not found from the working folder) gives a line saying so."""
+    from batchveh.model.vehicle import Vehicle, hinge_xy, load_vehicle, steering_geometry_of, vehicle_from_mapping
+
+    veh = raw.get("vehicle") if isinstance(raw, dict) else None
+    try:
+        if isinstance(veh, dict):
+            vehicle = vehicle_from_mapping(veh, "spec: vehicle")
+        elif isinstance(veh, str):
+            vehicle = load_vehicle(veh)
+        else:
+            vehicle = Vehicle()
+    except (ConfigError, OSError) as err:
+        return f"not recorded: the spec's vehicle cannot be read here ({err})"
+    flat: dict[str, Any] = vehicle.flat_geometry()
+    fixed = (raw.get("fixed") or {}) if isinstance(raw, dict) else {}
+    flat.update({k: float(v) for k, v in fixed.items() if k in flat and isinstance(v, (int, float))})
+    swept = [k for k in flat if frame is not None and k in frame.columns]
+    flat.update({k: frame[k].to_numpy(float) for k in swept})
+
+    def value(x: Any) -> float | list[float]:
+        x = pd.Series(x, dtype=float) if pd.api.types.is_list_like(x) else x
+        if not pd.api.types.is_list_like(x):
+            return round(float(x), 12)  # to 1e-12 m: 0.07, not 0.06999999999999995
+        low, high = round(float(x.min()), 12), round(float(x.max()), 12)
+        return low if low == high else [low, high]
+
+    hx, hy = hinge_xy(flat)
+    return {
+        "hinge_x_m": value(hx),
+        "hinge_y_m": value(hy),
+        "hinges_from": "steering.axis_x, steering.axis_y where > 0, else the chassis corners",
+        "varies_with": swept,
+        **{c: {f"{k}_m": value(v) for k, v in g.items()} for c, g in steering_geometry_of(flat).items()},
+    }
 
 
 class ResultFolder:
