@@ -12,7 +12,7 @@ The loaders:
 - `load_battery(path)` -> Battery, that catalogue's `battery:` section;
 - `load_scenario(name_or_path)` -> Scenario, `load_vehicle(path)` -> Vehicle;
 and `load(folder)` -> DataFrame, a sweep's results, one row per variant. Motor sizing itself is
-`batchveh.analysis.motors` (`screen`, `in_loop`).
+`batchveh.sizing` (`screen`, `in_loop`; the battery's loader: `batchveh.model.battery`).
 """
 
 __version__ = "0.1.0"
@@ -61,7 +61,7 @@ _LAZY = {
     "Vehicle": "batchveh.model.vehicle",
     "load_vehicle": "batchveh.model.vehicle",
     "load_catalogue": "batchveh.model.motors",
-    "load_battery": "batchveh.analysis.motors",
+    "load_battery": "batchveh.model.battery",
     "ResultError": "batchveh.sweeping.results",
     "load": "batchveh.sweeping.results",
     "metadata": "batchveh.sweeping.results",

@@ -7,7 +7,7 @@
 Three phases, one progress bar:
 1. the sweep with the ideal servo (the demand), in OUT/servo: reused where it is there and was made from the
    same spec (the sweep's resume), else run;
-2. the screen: every catalogue motor against that demand (`batchveh.analysis.motors.screen`), for the drives
+2. the screen: every catalogue motor against that demand (`batchveh.sizing.screening.screen`), for the drives
    and, unless --steer names one, for the steering; a straight line on its steady window, a mission on its whole
    cycle and each segment (--span picks one segment);
 3. in the loop (`in_loop`): the screen's choice (and the next smaller motor where its screen lies within 5
@@ -45,9 +45,9 @@ HOT_RUNS = 2  # in_loop's runs per candidate (`iterations` 1): from ambient, the
 
 def loop_runs(spec: Any) -> int:
     """The runs of every condition a candidate takes in the loop: one where its hot run comes in closed form from
-    it (`analysis.motors.closed_form`: a straight line; run again only for the conditions it cannot say), else
+    it (`sizing.thermal.closed_form`: a straight line; run again only for the conditions it cannot say), else
     HOT_RUNS."""
-    from batchveh.analysis.motors import closed_form
+    from batchveh.sizing.thermal import closed_form
 
     return 1 if closed_form(spec) else HOT_RUNS
 
@@ -77,8 +77,8 @@ def catalogue_of(path: str) -> dict[str, Any]:
 def battery_of(path: str) -> Any:
     """The catalogue's battery, or None where it has no `battery:` section (one that is there and wrong is a
     ConfigError line, as the rest of the catalogue's)."""
-    from batchveh.analysis.motors import load_battery
     from batchveh.config import load_yaml
+    from batchveh.model.battery import load_battery
 
     data = load_yaml(path)
     return load_battery(path) if isinstance(data, dict) and "battery" in data else None
@@ -114,7 +114,7 @@ def unwritten(done: dict[str, Any], where: Path) -> None:
 
 
 def sweep_runner(folder: Path, catalogue: str, backend: str | None, executor: Any = None) -> Any:
-    """The loop's Runner (`batchveh.analysis.motors.Runner`): each run a sweep of its table (method zip) in
+    """The loop's Runner (`batchveh.sizing.loop.Runner`): each run a sweep of its table (method zip) in
     `folder`/<its inputs' digest>, on `backend`, through `executor(spec, n)` (a fresh executor per run, or
     None: this process), resumed where it was left: a killed session runs again only the chunks not written.
     The digest covers the table, the vehicle, the scenario, the spec's YAML, the catalogue's bytes and the
@@ -305,9 +305,9 @@ def servo_phase(ses: Session) -> None:
 def screen_phase(ses: Session) -> None:
     """Every (motor, ratio) of the catalogue against the demand, drives and steering; each motor's window; the
     table the loop walks (one ratio a motor), the screen's choice and the steering to start with."""
-    from batchveh.analysis.motors import mission_segments, screen
     from batchveh.sizing.plan import candidates, steering
     from batchveh.sizing.ramps import ramp_of, wheel_accel
+    from batchveh.sizing.screening import mission_segments, screen
     from batchveh.sizing.windows import best_of, loop_table, windows, with_entry
 
     args, spec, df, cat = ses.args, ses.spec, ses.df, ses.cat
@@ -339,9 +339,10 @@ def loop_phase(ses: Session) -> None:
     motor run there screened again over the variants its run judged."""
     import pandas as pd
 
-    from batchveh.analysis.motors import in_loop, screen
     from batchveh.engines import resolve_backend
+    from batchveh.sizing.loop import in_loop
     from batchveh.sizing.plan import batch_of, read_batch
+    from batchveh.sizing.screening import screen
 
     args, spec, n, per, bar = ses.args, ses.spec, ses.n, ses.per, ses.bar
     ranked_steer = list(ses.steer_table["motor"]) if args.steer is None else [ses.steer]
@@ -384,7 +385,7 @@ def hottest_phase(ses: Session, loop: Any) -> tuple[str, dict[str, float], str, 
     covers it and why not, and its time series from its own hot start (`trace`)."""
     import numpy as np
 
-    from batchveh.analysis.motors import IN_LOOP_REASONS, STEER_REASONS, best_in_loop
+    from batchveh.sizing.loop import IN_LOOP_REASONS, STEER_REASONS, best_in_loop
 
     spec, df = ses.spec, ses.df
     hottest = ses.chosen or best_in_loop(loop)

@@ -32,8 +32,8 @@ CATALOGUE = ROOT / "notebooks" / "motors.yaml"
 
 def main() -> None:
     import batchveh
-    from batchveh.analysis.motors import screen
     from batchveh.model.motors import load_catalogue
+    from batchveh.sizing import screen
     from batchveh.sizing.ramps import ramp_of, wheel_accel
     from batchveh.sizing.windows import windows
 

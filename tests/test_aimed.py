@@ -4,7 +4,7 @@
    in stepping/batch.py drive_gains): on issue 51's robot, whose rear contacts lead their steering axes, the term is
    checked against its closed form, and against the rear wheel's load on the spec's steepest climb, which exceeds the
    static load: a term at the static load would leave the rear hinge short of the tyre's moment.
-2. A steering is lost past 5 deg off its imposed angle (analysis/motors.py STEER_LOST_DEG): a constructed
+2. A steering is lost past 5 deg off its imposed angle (sizing/loop.py STEER_LOST_DEG): a constructed
    in-the-loop result with runs 0-60 deg off, read by `steer_reasons` and `not_simulated`.
 """
 
@@ -18,8 +18,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from batchveh.analysis.motors import GROUPS, STEER_REASONS, not_simulated, steer_reasons
 from batchveh.model.motors import load_catalogue
+from batchveh.sizing import GROUPS, STEER_REASONS, not_simulated, steer_reasons
 from batchveh.stepping.batch import make_batch
 from batchveh.sweeping.spec import load_spec
 

@@ -28,10 +28,10 @@ hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import assume, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from batchveh.analysis.motors import STEER_LIMIT_SHARE, STEER_LOST_DEG  # noqa: E402
 from batchveh.engines.mujoco import MujocoEngine  # noqa: E402
 from batchveh.model.motors import load_catalogue  # noqa: E402
 from batchveh.model.vehicle import CORNERS  # noqa: E402
+from batchveh.sizing import STEER_LIMIT_SHARE, STEER_LOST_DEG  # noqa: E402
 from batchveh.stepping.batch import make_batch  # noqa: E402
 from batchveh.stepping.motor_stats import MOTOR_STATUS  # noqa: E402
 from batchveh.sweeping.spec import spec_from_mapping  # noqa: E402
@@ -47,7 +47,7 @@ RAMP_MIN, RAMP_MAX = 1.0, 20.0  # s
 RECOVER, WINDOW = 1.0, 2.0  # s after the ramp, then the steady window
 FAST_EXAMPLES, SLOW_EXAMPLES = 3, 150
 COMMON = {"deadline": None, "derandomize": True, "database": None}
-# the bounds, the loop's own (analysis.motors STEER_LIMIT_SHARE, STEER_LOST_DEG; asserted equal below). Measured over
+# the bounds, the loop's own (sizing.loop STEER_LIMIT_SHARE, STEER_LOST_DEG; asserted equal below). Measured over
 # the long pass's 150 draws (validation/results/any_steering.json):
 AT_LIMIT_SHARE = 0.05  # the steering at its current limit, share of the run: measured 0.044 at most (p99 0)
 LOST_DEG = 5.0  # steering angle off the imposed one (deg): measured 0.0058 at most (p99 1.6e-4)
@@ -220,7 +220,7 @@ def test_a_steering_miss_is_the_steerings_never_the_drives():
 
     import pandas as pd
 
-    from batchveh.analysis.motors import in_loop
+    from batchveh.sizing import in_loop
     from batchveh.sweeping.spec import load_spec
 
     spec = load_spec(ROBOT)

@@ -8,10 +8,9 @@ import pandas as pd
 import pytest
 import yaml
 
-from batchveh.analysis.motors import screen
 from batchveh.config import ConfigError
 from batchveh.model.motors import load_catalogue
-from batchveh.sizing import requirements, windows
+from batchveh.sizing import requirements, screen, windows
 
 # a hand-made motor: K, R, the bus and the continuous current; no thermal model, no gearhead ratings
 K, R, V, I_MAX, ETA = 0.05, 0.5, 24.0, 4.0, 0.9

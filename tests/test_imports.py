@@ -22,6 +22,7 @@ LAYERS = {
             "",
             "gearheads",
             "motors",
+            "battery",
             "drive",
             "vehicle",
             "indexing",
@@ -48,10 +49,11 @@ LAYERS = {
     "sweeping": tuple(
         f"sweeping.{m}" for m in ("", "storage", "spec", "results", "prestart", "chunks", "retry", "cluster", "gpus")
     ),
-    "analysis": tuple(f"analysis.{m}" for m in ("", "motors", "plot", "sensitivity")),
-    # sizing a motor and its gear ratio from a servo sweep: the windows, the requirement sheet
+    "analysis": tuple(f"analysis.{m}" for m in ("", "demand", "plot", "sensitivity")),
+    # sizing a motor and its gear ratio from a servo sweep: the screen, the windows, the requirement sheet, the loop
     "sizing": tuple(
-        f"sizing.{m}" for m in ("", "ramps", "plan", "windows", "requirements", "figures", "report")
+        f"sizing.{m}"
+        for m in ("", "screening", "ramps", "plan", "windows", "requirements", "thermal", "loop", "figures", "report")
     ),
     "face": ("",),  # batchveh/__init__.py: the public names
     "cli": ("sweep", "run", "render", "sensitivity", "size"),

@@ -6,8 +6,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from batchveh.analysis.motors import screen, segment_ramp
 from batchveh.model.motors import DCMotor
+from batchveh.sizing import screen, segment_ramp
 from batchveh.stepping.motor_stats import SHORT_SHARE
 
 SEG = "seg0_accelerate"

@@ -1,4 +1,4 @@
-"""Motor sizing against hand-computed values: one API (batchveh.analysis.motors.screen, in_loop) over one
+"""Motor sizing against hand-computed values: one API (batchveh.sizing.screen, in_loop) over one
 catalogue format (notebooks/motors.yaml's, batchveh.load_catalogue) and its battery (batchveh.load_battery)."""
 
 import re
@@ -9,10 +9,10 @@ import pytest
 import yaml
 
 import batchveh
-from batchveh.analysis import motors
-from batchveh.analysis.motors import REASONS, demand, screen, screen_one
+from batchveh import sizing
 from batchveh.config import ConfigError
 from batchveh.model.motors import DCMotor
+from batchveh.sizing import REASONS, demand, screen, screen_one
 
 WHEELS = ("drive_lf", "drive_rf", "drive_lr", "drive_rr")
 
@@ -251,6 +251,8 @@ def test_the_screen_counts_a_drive_over_the_variants_judged():
 def test_the_loop_names_a_speed_miss_by_the_segment_that_asks_it():
     """The servo's peak wheel speed passes the no-load speed (24 rad/s at the wheel) first in seg2 for row 0,
     in seg1 for row 1, nowhere for row 2."""
+    from batchveh.sizing.loop import _first_segment_above
+
     servo = pd.DataFrame(
         {
             f"seg{k}_{name}_{m}_speed_peak": v
@@ -259,7 +261,7 @@ def test_the_loop_names_a_speed_miss_by_the_segment_that_asks_it():
         }  # fmt: skip
     )
     servo = servo.assign(**{f"seg{k}_{n}_{m}_rms": 1.0 for k, n in ((1, "cruise"), (2, "turn")) for m in WHEELS})
-    assert list(motors._first_segment_above(servo, 24.0)) == ["seg2_turn", "seg1_cruise", ""]
+    assert list(_first_segment_above(servo, 24.0)) == ["seg2_turn", "seg1_cruise", ""]
 
 
 def test_the_rotor_inertia_is_reflected_only_with_accel():
@@ -286,20 +288,20 @@ def test_the_loaders_are_public_in_one_place():
     from batchveh.model.motors import load_catalogue
 
     assert batchveh.load_catalogue is load_catalogue
-    assert batchveh.load_battery is motors.load_battery
+    assert batchveh.load_battery is sizing.load_battery
     assert {"load_spec", "load_catalogue", "load_battery"} <= set(batchveh.__all__)
     for name in ("load_spec", "load_catalogue", "load_battery"):
         assert "->" in batchveh.__doc__.split(f"`{name}(")[1].split("\n")[0], name  # each with what it returns
     # one sizing API: the older torque-envelope path is gone
     for old in ("Motor", "load_motors", "from_dcmotor", "check", "check_mission", "smallest"):
-        assert not hasattr(motors, old), old
+        assert not hasattr(sizing, old), old
 
 
 def test_the_documented_catalogue_format_reads_as_written(tmp_path):
-    """The module docstring's catalogue entry and battery, through the public loaders: K 0.131 N m/A,
+    """batchveh.sizing's docstring's catalogue entry and battery, through the public loaders: K 0.131 N m/A,
     R 6.89 Ohm, 48 V, 0.936 A, R_T 4.1 + 3.56 = 7.66 K/W, N 40, eta 0.95, the gearhead's ratings; the battery
     48 V x 20 Ah = 960 Wh, and at 20 A (48 - 20 x 0.3) x 20 = 840 W."""
-    text = re.search(r"```yaml\n(.*?)```", motors.__doc__, re.S).group(1)
+    text = re.search(r"```yaml\n(.*?)```", sizing.__doc__, re.S).group(1)
     path = tmp_path / "catalogue.yaml"
     path.write_text(text)
     assert yaml.safe_load(text)["motors"][0]["gearhead"]["ratio"] == 40.0
@@ -357,14 +359,14 @@ def test_in_loop_reads_a_spec_path_and_refuses_a_bad_name_in_one_line(tmp_path):
     df = pd.DataFrame({"slope_deg": [0.0, 5.0]})
     for given in (spec, str(spec)):
         with pytest.raises(ConfigError, match=r"candidates: 'maxon-353297-48V_NPT025-i4' .*did you mean"):
-            motors.in_loop(given, df, catalogue, ["maxon-353297-48V_NPT025-i4"], steer=steer)
+            sizing.in_loop(given, df, catalogue, ["maxon-353297-48V_NPT025-i4"], steer=steer)
     with pytest.raises(ConfigError, match=r"steer: 'nope' is not in the catalogue"):
-        motors.in_loop(spec, df, catalogue, [steer], steer="nope")
+        sizing.in_loop(spec, df, catalogue, [steer], steer="nope")
 
 
 def test_a_span_that_is_not_there_is_one_line():
     """A servo sweep's rows screened on a mission span they do not have: one ConfigError line naming it."""
-    from batchveh.analysis.motors import demand
+    from batchveh.sizing import demand
 
     df = pd.DataFrame({f"drive_{c}_rms": [1.0] for c in ("lf", "rf", "lr", "rr")})
     with pytest.raises(ConfigError, match=r"span: 'mission' has no column mission_drive_lf_rms") as err:
@@ -414,13 +416,13 @@ def test_a_ramp_the_motor_cannot_follow_is_short_in_the_window():
     """A linear ramp to 10 rad/s over 2 s (5 rad/s^2) with the wheel's acceleration capped at 2.5 rad/s^2: the wheel
     reaches 10 rad/s at 4 s. Over the window [2.5, 5] s its speed rises from 6.25 to 10 by 4 s, then holds: mean
     ((6.25 + 10) / 2 x 1.5 + 10 x 1) / 2.5 = 8.875 rad/s, 11.25% short. At 5 rad/s^2 or more it is on time."""
-    got = motors.ramp_shortfall(10.0, 2.0, (2.5, 5.0), 2.5, law="ramp")
+    got = sizing.ramp_shortfall(10.0, 2.0, (2.5, 5.0), 2.5, law="ramp")
     assert got == pytest.approx(0.1125, abs=2e-3)  # the 400-step grid: 1/80 s a step
-    assert motors.ramp_shortfall(10.0, 2.0, (2.5, 5.0), 5.0, law="ramp") == pytest.approx(0.0, abs=1e-12)
+    assert sizing.ramp_shortfall(10.0, 2.0, (2.5, 5.0), 5.0, law="ramp") == pytest.approx(0.0, abs=1e-12)
     # smooth_step's peak acceleration is 15/8 of the mean: 9.375 rad/s^2 here; at 9 the wheel lags a little
     # during the ramp, catches up before 2.5 s, and the window is on speed
-    assert motors.ramp_shortfall(10.0, 2.0, (2.5, 5.0), 9.0) == pytest.approx(0.0, abs=1e-12)
-    assert motors.ramp_shortfall(10.0, 2.0, (2.5, 5.0), 2.0) > 0.1
+    assert sizing.ramp_shortfall(10.0, 2.0, (2.5, 5.0), 9.0) == pytest.approx(0.0, abs=1e-12)
+    assert sizing.ramp_shortfall(10.0, 2.0, (2.5, 5.0), 2.0) > 0.1
 
 
 def test_the_wheels_share_only_within_their_grip():
@@ -446,8 +448,8 @@ def test_the_hot_start_at_a_duty_is_the_cycles_steady_state(duty):
     cycle after cycle: 300 cycles from cold settle on s*. `_hot_start` on the first run alone (from cold: its end
     and its integral of i^2) lands on s*; so does it from a run that started elsewhere (s = 30 K). Without the
     resistance's rise with temperature (alpha 0 in the closed form) it would land low."""
-    from batchveh.analysis.motors import _hot_start
     from batchveh.model.motors import COPPER_TEMPCOEF
+    from batchveh.sizing.thermal import _hot_start
 
     r, r_th, cap, t_amb, run, dt = 1.2, 6.0, 5.0, 25.0, 10.0, 1e-3
     c = {"R": r, "R_T": r_th, "C": cap, "t_T": r_th * cap, "T_amb": t_amb}
@@ -478,7 +480,7 @@ def test_a_runaway_winding_starts_where_one_run_repeated_would():
     """A winding whose copper loss grows faster with heat than it sheds (alpha R Q / C = 0.0039 x 1.2 x 1e4 / 5 =
     9.4 > D / (R_T C) = 0.33) has no back-to-back fixed point: the next run starts where this one ended, cooled
     over the rest (here none: 175 K), not at an infinite rise; a run that diverged (NaN) starts cold."""
-    from batchveh.analysis.motors import _hot_start
+    from batchveh.sizing.thermal import _hot_start
 
     c = {"R": 1.2, "R_T": 6.0, "C": 5.0, "t_T": 30.0, "T_amb": 25.0}
     res = pd.DataFrame({"drive_lf_current_sq_time": [1e4, np.nan], "drive_lf_winding_temp_end": [200.0, np.nan]})
@@ -520,8 +522,8 @@ def test_a_segment_the_loop_falls_behind_in_is_named():
     loop = servo.copy()
     loop["seg1_climb_distance"] = [1.95, 1.97]
     loop["seg2_stop_distance"] = [0.0, 0.0]
-    assert list(motors.segment_shortfall(servo, loop)) == ["seg1_climb", ""]
-    assert list(motors.segment_shortfall(pd.DataFrame({"x": [1.0]}), pd.DataFrame({"x": [1.0]}))) == [""]
+    assert list(sizing.segment_shortfall(servo, loop)) == ["seg1_climb", ""]
+    assert list(sizing.segment_shortfall(pd.DataFrame({"x": [1.0]}), pd.DataFrame({"x": [1.0]}))) == [""]
 
 
 def test_the_current_integral_covers_the_steps_the_end_temperature_holds():

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 import batchveh
-from batchveh.analysis.motors import Battery, in_loop, screen_one
 from batchveh.engines.mujoco import MujocoEngine
 from batchveh.model.motors import load_catalogue
 from batchveh.model.vehicle import CORNERS
+from batchveh.sizing import Battery, in_loop, screen_one
 from batchveh.stepping.batch import make_batch
 from batchveh.stepping.motor_stats import MOTOR_STATUS
 from batchveh.sweeping.spec import spec_from_mapping
@@ -240,7 +240,7 @@ def test_a_run_that_fails_its_physics_checks_is_counted_apart_never_as_a_reason(
     cannot hold, still fails for its own reason, and the coverage is over the one variant simulated."""
     import dataclasses
 
-    from batchveh.analysis.motors import IN_LOOP_REASONS, in_loop_lines
+    from batchveh.sizing import IN_LOOP_REASONS, in_loop_lines
 
     spec = _spec(tmp_path, tyre="slip")
     motors = dataclasses.replace(spec.vehicle.motors, dc_drive_kp=5000.0, dc_drive_kv=500.0)
@@ -277,7 +277,7 @@ def test_the_candidates_in_one_batch_equal_one_run_each(tmp_path):
 def test_the_limiting_reason_counts_a_reason_at_any_speed_as_one_and_ties_go_to_the_first():
     import pandas as pd
 
-    from batchveh.analysis.motors import _limiting
+    from batchveh.sizing.screening import _limiting
 
     assert _limiting(pd.Series(["B at 1", "A at 1", "A at 1", "B at 2"])) == "B (2 of 4)"
     assert _limiting(pd.Series(["x: peak at 1 m/s", "y: rms", "x: peak at 2 m/s", "y: rms"])) == "x: peak (2 of 4)"
@@ -311,7 +311,8 @@ def test_a_run_from_another_start_rise_is_the_cold_run_moved_by_its_gains(tmp_pa
     reaches the voltage line exactly where its margin is below its start."""
     import pandas as pd
 
-    from batchveh.analysis.motors import GROUP_RISES, hot_columns
+    from batchveh.analysis.demand import GROUP_RISES
+    from batchveh.sizing.thermal import hot_columns
     from batchveh.stepping.motor_stats import named
 
     cold_spec, plain = _agv(tmp_path, True), _agv(tmp_path, False)
@@ -396,7 +397,8 @@ def test_the_closed_form_redoes_what_its_bounds_cannot_say():
     battery above."""
     import pandas as pd
 
-    from batchveh.analysis.motors import GROUP_RISES, hot_columns
+    from batchveh.analysis.demand import GROUP_RISES
+    from batchveh.sizing.thermal import hot_columns
     from batchveh.stepping.motor_stats import HOT_GRID
 
     margins = np.array([1e3, 25.0, 31.0])  # the start 30 K: at 25 K a step reaches the line; at 31 K none does

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from conftest import SLOPE_SUM_RTOL, slope_torque
 
-from batchveh.analysis.motors import WHEELS
+from batchveh.analysis.demand import WHEELS
 from batchveh.model.scenarios import make_scenario, scenario_from_mapping
 from batchveh.model.vehicle import build_model
 from batchveh.run import simulate
@@ -164,7 +164,7 @@ def test_slip_is_reported_past_the_friction_limit(vehicle):
     np.testing.assert_allclose(s["drive_sum_mean"], _sliding_sum(vehicle, 20, 0.3), rtol=SLIDING_SUM_RTOL)
 
 
-# Peaks converge in dt (issue 10, finding 4; validation/PEAKS.md). The motor screen (analysis.motors.demand)
+# Peaks converge in dt (issue 10, finding 4; validation/PEAKS.md). The motor screen (analysis.demand.demand)
 # sizes a drive motor on the worst wheel's steady-window `rms` and whole-run `peak_lp_all`, and on
 # `wheel_speed`; the unfiltered `peak_all` (the issue's drive_sum_peak_all moved -22% per halving before) is
 # checked too. Straight line, 10 deg, mu 0.9, 1 km/h, ramp 1 s, 4 s, the default laws (0.5 s settle,
@@ -206,13 +206,13 @@ def test_halving_dt_changes_mean_slope_torque_little(peak_runs):
 
 
 def test_halving_dt_moves_every_sizing_peak_by_at_most_2_percent(vehicle, peak_runs):
-    """Every statistic the motor screen (analysis.motors.demand) sizes on, each wheel's, and the unfiltered peaks,
+    """Every statistic the motor screen (analysis.demand.demand) sizes on, each wheel's, and the unfiltered peaks,
     per halving of dt."""
     for name in SIZING_PEAKS:
         vals = [float(s[name]) for s in peak_runs]
         for a, b in zip(vals[:-1], vals[1:], strict=True):
             assert abs(b - a) / abs(b) <= PEAK_HALVING_RTOL, (name, vals)
-    # the worst wheel, as the motor screen (analysis.motors.demand) takes it
+    # the worst wheel, as the motor screen (analysis.demand.demand) takes it
     for stat in ("rms", "peak_lp_all"):
         worst = [max(abs(float(s[f"{w}_{stat}"])) for w in WHEELS) for s in peak_runs]
         for a, b in zip(worst[:-1], worst[1:], strict=True):

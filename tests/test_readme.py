@@ -122,7 +122,7 @@ def test_readme_commands_and_tour_run(tour):
         done = subprocess.run(cmd, shell=True, cwd=here, env=env, capture_output=True, text=True, timeout=RUN_TIMEOUT_S)
         assert done.returncode == 0, f"{line}\n{done.stdout[-2000:]}\n{done.stderr[-2000:]}"
     script = "\n".join(blocks(README, "python"))
-    assert "batchveh.load" in script and "motors.screen" in script and "plot.envelope" in script
+    assert "batchveh.load" in script and "sizing.screen" in script and "plot.envelope" in script
     done = subprocess.run(
         [sys.executable, "-c", script], cwd=here, env=env, capture_output=True, text=True, timeout=RUN_TIMEOUT_S
     )

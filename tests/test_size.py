@@ -87,8 +87,8 @@ def test_the_command_chooses_and_writes_its_report(sized, capsys):
 def test_the_choice_is_what_screen_and_in_loop_give_by_hand(sized):
     """The same rows (the servo sweep the command ran), the same calls by hand."""
     import batchveh
-    from batchveh.analysis.motors import in_loop, screen
     from batchveh.model.motors import load_catalogue
+    from batchveh.sizing import in_loop, screen
     from batchveh.sizing.ramps import ramp_of, wheel_accel
     from batchveh.sizing.windows import best_of, loop_table, windows
 
@@ -325,7 +325,7 @@ def test_the_battery_is_judged_apart_never_against_a_drive(sized, tmp_path, caps
     run's (the battery is not a motor's miss); the loop's row, the last line, the report and verdicts.parquet
     count the runs past it: those whose hot bus power passes (V - I R) I, worked out here."""
     import batchveh
-    from batchveh.analysis.motors import in_loop
+    from batchveh.sizing import in_loop
 
     out0, _, _ = sized
     first = json.loads((out0 / "sizing.json").read_text())

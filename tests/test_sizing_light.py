@@ -36,14 +36,14 @@ def test_the_screens_choice_in_the_loop_is_stable_and_within_its_current():
     screen's choice, from the hot steady state: none unstable, every motor's torque within its current limit.
     About 10 s on 2 cores (no servo sweep: in_loop reads only the rows' parameters)."""
     import batchveh
-    from batchveh.analysis import motors
+    from batchveh import sizing
 
     sl = _script()
     spec = batchveh.load_spec(sl.SPEC)
     grid = np.array(np.meshgrid([0.0, 20.0], [0.0, 10.0], [0.5, 3.0, 6.0], indexing="ij")).reshape(3, -1)
     rows = pd.DataFrame(dict(zip(["payload.mass", "slope_deg", "speed_kmh"], grid, strict=True)))
     assert list(rows.columns) == list(spec.params)
-    _, table, detail = motors.in_loop(
+    _, table, detail = sizing.in_loop(
         spec, rows, sl.CATALOGUE, [CHOICE], steer=sl.STEER, backend="mujoco", stop_at_first=False
     )
     d = detail[CHOICE]

@@ -3,7 +3,7 @@
 Each ```python block of the guide runs as its own script (a reader may start at any section) in a temporary
 folder that holds small copies of the specs in sweeps/ (tests/test_readme.py's `tiny`: the same keys, two
 values of each swept parameter or 4 sampled rows, 1 s of driving; a mission keeps its segments) and a link to
-notebooks/. Every `batchveh.<name>` the guide writes, and every `motors.<name>(...)` call, must exist.
+notebooks/. Every `batchveh.<name>` the guide writes, and every `sizing.<name>(...)` call, must exist.
 """
 
 import importlib
@@ -21,8 +21,8 @@ ROOT = Path(__file__).resolve().parent.parent
 GUIDE = ROOT / "docs" / "user-guide.md"
 RUN_TIMEOUT_S = 300
 # the calls that sizing documents: each must run in one of the guide's Python blocks, not only be named
-SIZING_CALLS = ("batchveh.load_spec(", "batchveh.load_catalogue(", "batchveh.load_battery(", "motors.screen(")
-SIZING_CALLS += ("motors.in_loop(",)
+SIZING_CALLS = ("batchveh.load_spec(", "batchveh.load_catalogue(", "batchveh.load_battery(", "sizing.screen(")
+SIZING_CALLS += ("sizing.in_loop(",)
 
 
 @pytest.fixture(scope="module")
@@ -54,7 +54,7 @@ def test_each_python_block_runs_as_written(guide, k):
         label = re.match(r'print\("([^"{]+?):"', line.strip())
         if label:
             assert label.group(1) in done.stdout, (label.group(1), done.stdout[-2000:])
-    if "motors.in_loop(" in PYTHON[k]:  # a candidate ran in the loop: in_loop_lines has a line for it
+    if "sizing.in_loop(" in PYTHON[k]:  # a candidate ran in the loop: in_loop_lines has a line for it
         assert re.search(r"^\S+: covers \d", done.stdout, re.M), done.stdout[-2000:]
 
 
@@ -71,8 +71,8 @@ def _resolve(dotted: str):
 
 
 def test_every_name_the_guide_writes_exists():
-    """`batchveh.x.y` anywhere in the guide (not a file name such as .batchveh.lock), and `motors.f(` as a call
-    of batchveh.analysis.motors."""
+    """`batchveh.x.y` anywhere in the guide (not a file name such as .batchveh.lock), and `sizing.f(` as a call
+    of batchveh.sizing."""
     text = GUIDE.read_text()
     names = set(re.findall(r"(?<![\w./-])(batchveh(?:\.\w+)+)", text))
     assert {"batchveh.load_spec", "batchveh.load_catalogue", "batchveh.load_battery"} <= names
@@ -82,9 +82,9 @@ def test_every_name_the_guide_writes_exists():
             _resolve(name)
         except (AttributeError, ImportError):
             missing.append(name)
-    from batchveh.analysis import motors
+    from batchveh import sizing
 
-    calls = set(re.findall(r"(?<![\w.])motors\.(\w+)\(", text))
+    calls = set(re.findall(r"(?<![\w.])sizing\.(\w+)\(", text))
     assert {"screen", "in_loop"} <= calls
-    missing += [f"motors.{c}" for c in sorted(calls) if not hasattr(motors, c)]
+    missing += [f"sizing.{c}" for c in sorted(calls) if not hasattr(sizing, c)]
     assert not missing, f"the guide names what does not exist: {missing}"

@@ -131,7 +131,7 @@ def layout_effect(out: Path) -> dict:
     the sidewalk robot's 400 servo rows run alone and as the first half of the same rows twice; per column the
     largest |difference|. The batch's differences from the sequential path are of this kind and size."""
     import batchveh
-    from batchveh.analysis.motors import in_loop
+    from batchveh.sizing import in_loop
 
     spec = batchveh.load_spec(ROOT / "sweeps" / "sidewalk_robot.yaml")
     df = batchveh.load(out / "sidewalk_robot" / "batch" / "servo")
@@ -160,7 +160,7 @@ def two_in_one_batch(out: Path) -> dict:
     (fails_<reason>, steer_fails_<reason>, judged) equal, its coverage and hot start equal, and the largest
     |difference| of any number (the engine's batch-layout effect, `layout_effect`)."""
     import batchveh
-    from batchveh.analysis.motors import in_loop
+    from batchveh.sizing import in_loop
 
     spec = batchveh.load_spec(ROOT / "sweeps" / "sidewalk_robot.yaml")
     df = batchveh.load(out / "sidewalk_robot" / "batch" / "servo")

@@ -85,8 +85,8 @@ def family(numbers: dict) -> dict:
 
 def measure(name: str, n: int, backend: str | None, folder: Path, floor: bool = False) -> dict:
     import batchveh
-    from batchveh.analysis.motors import in_loop
     from batchveh.size import servo_spec
+    from batchveh.sizing import in_loop
     from batchveh.sweep import run_sweep
 
     _, drive, steer = CASES[name]

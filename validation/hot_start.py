@@ -33,8 +33,8 @@ WHEELS = ("lf", "rf", "lr", "rr")
 
 def measure(name: str) -> dict:
     import batchveh
-    from batchveh.analysis.motors import in_loop
     from batchveh.size import servo_spec
+    from batchveh.sizing import in_loop
     from batchveh.sweep import run_sweep
 
     path, drive, steer, n = CASES[name]

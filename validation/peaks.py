@@ -53,7 +53,7 @@ SETTLE = 0.5  # s: the slow servo mode (kv/kp = 0.1 s) decays to 1% in 0.46 s
 TOL = 0.02  # the target: at most 2% per halving of dt
 DRIVES = tuple(f"drive_{c}" for c in CORNERS)
 STEERS = tuple(f"steer_{c}" for c in CORNERS)
-# the statistics studied; the motor screen (analysis.motors.demand) sizes on drive rms and drive peak_lp_all
+# the statistics studied; the motor screen (analysis.demand.demand) sizes on drive rms and drive peak_lp_all
 # (max over wheels)
 STATS = ("mean", "rms", "p95", "peak", "max", "min", "peak_lp", "peak_all", "peak_lp_all", "power_peak")
 SIZING_KEYS = ["drive.rms", "drive.peak_lp_all", "sum.peak_lp_all", "drive.peak_all", "sum.peak_all", "drive.peak"]

@@ -44,7 +44,7 @@ SLOPE_SHARE = "0.9"  # on the main job's first 500 variants no catalogue motor c
 def by_hand(spec_path: Path, out: Path, share: float = 0.99) -> str | None:
     """The screen and the loop called by hand on the servo rows the command wrote."""
     import batchveh
-    from batchveh.analysis.motors import in_loop, screen
+    from batchveh.sizing import in_loop, screen
     from batchveh.sizing.plan import candidates
     from batchveh.sizing.ramps import ramp_of, wheel_accel
 

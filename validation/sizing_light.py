@@ -1,7 +1,7 @@
 """Sizing agrees with itself on a light vehicle: the screen's choice, run in the loop, covers what the screen said.
 
 The robot: sweeps/delivery_robot.yaml (60 kg plus a 0-20 kg payload, 0.10 m wheels, straight climbs of 0-10 deg at
-0.5-6 km/h, 400 LHS variants, the ideal servo). The check, in two passes (batchveh.analysis.motors, docs/motors.md):
+0.5-6 km/h, 400 LHS variants, the ideal servo). The check, in two passes (batchveh.sizing, docs/motors.md):
 
 1. the servo sweep (MuJoCo C), reused where its results are present and hold the same variants;
 2. the fast screen of every catalogue motor (notebooks/motors.yaml) at share 0.99: its choice, its coverage and its
@@ -120,7 +120,7 @@ def candidate_report(
 ) -> dict:
     """One in-loop candidate: its coverage against the screen's, its reasons, its physics checks, and each
     variant it rejects or could not simulate."""
-    from batchveh.analysis.motors import IN_LOOP_REASONS
+    from batchveh.sizing import IN_LOOP_REASONS
     from batchveh.stepping.motor_stats import TORQUE_TOL
 
     cap = deliverable(name)
@@ -183,7 +183,7 @@ def candidate_report(
 
 def run(n: int = 400, out: Path = OUT, battery: bool = True) -> dict:
     """The whole check on the first `n` variants; returns the report (JSON-able)."""
-    from batchveh.analysis import motors
+    from batchveh import sizing
     from batchveh.model.motors import load_catalogue
 
     t_all = time.perf_counter()
@@ -198,11 +198,11 @@ def run(n: int = 400, out: Path = OUT, battery: bool = True) -> dict:
     # the ramp a motor at its bound must follow, as the size command screens it
     from batchveh.sizing.ramps import ramp_of
 
-    best, table, failing = motors.screen(
+    best, table, failing = sizing.screen(
         df, cat, share=SHARE, armature=spec.vehicle.motors.armature, accel=accel, ramp=ramp_of(spec, df)
     )
     screen_wall = time.perf_counter() - t0
-    steer_best, steer_table, _ = motors.screen(df, cat, share=1.0, group="steer")
+    steer_best, steer_table, _ = sizing.screen(df, cat, share=1.0, group="steer")
     steer_cov = float(steer_table.set_index("motor").loc[STEER, "coverage"])
     report: dict[str, Any] = {
         "check": "sizing agrees with itself on a light vehicle (the screen's choice in the loop, default gains)",
@@ -231,10 +231,10 @@ def run(n: int = 400, out: Path = OUT, battery: bool = True) -> dict:
     order = table["motor"].tolist()
     candidates = [best] + ([order[order.index(best) - 1]] if order.index(best) > 0 else [])
     loop = []
-    bat = motors.load_battery(CATALOGUE) if battery else None
+    bat = sizing.load_battery(CATALOGUE) if battery else None
     for name in candidates:  # one at a time: each its own wall time
         t0 = time.perf_counter()
-        _, tab, detail = motors.in_loop(
+        _, tab, detail = sizing.in_loop(
             spec, df, CATALOGUE, [name], steer=STEER, share=SHARE, battery=bat, backend="mujoco", stop_at_first=False
         )
         wall = time.perf_counter() - t0

@@ -37,7 +37,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from batchveh.analysis.motors import best_in_loop
+from batchveh.sizing import best_in_loop
 from batchveh.sizing.windows import window_text
 
 ROOT = Path(__file__).resolve().parent.parent

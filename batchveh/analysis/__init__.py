@@ -1,2 +1,2 @@
-"""What the numbers mean: motor sizing against a catalogue (`motors`), figures (`plot`) and Sobol'
-sensitivity indices (`sensitivity`)."""
+"""What the numbers mean: what a motor must deliver (`demand`; sizing against a catalogue is `batchveh.sizing`),
+figures (`plot`) and Sobol' sensitivity indices (`sensitivity`)."""

@@ -446,11 +446,11 @@ def steering_envelope(
 
 
 def operating_points(df: pd.DataFrame, name: str, motor) -> plt.Figure:
-    """Each variant's worst drive at the wheel (`batchveh.analysis.motors.demand`: the steady RMS and the whole
+    """Each variant's worst drive at the wheel (`batchveh.analysis.demand.demand`: the steady RMS and the whole
     run's low-pass peak against the wheel speed) over `motor`'s limits as the screen checks them: its voltage
     line eta N K (V - K N w) / R, its continuous torque eta N K i_max and its gearhead's intermittent rating
     (`motor`: a catalogue entry, batchveh.load_catalogue(path)[name])."""
-    from batchveh.analysis.motors import demand
+    from batchveh.analysis.demand import demand
 
     need = demand(df)
     c = motor.resolved()

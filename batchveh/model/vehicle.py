@@ -148,11 +148,11 @@ class Motors:
         0.0, unit="rad/s", ge=0, doc="dcmotor steering's angle-loop bandwidth (0: the largest dt allows)"
     )
     # model dcmotor: each winding's temperature rise over its ambient at t = 0 (K), e.g. the hot steady state of
-    # back-to-back runs (batchveh.analysis.motors.in_loop finds it); read as the thermal state's start value
+    # back-to-back runs (batchveh.sizing.loop.in_loop finds it); read as the thermal state's start value
     drive_start_rise: float = field(0.0, unit="K", ge=0, doc="dcmotor drives' winding rise at the start")
     steer_start_rise: float = field(0.0, unit="K", ge=0, doc="dcmotor steering windings' rise at the start")
     # model dcmotor: also write how each run's columns move with the start rises (motor_stats.HOT_COLUMNS), from
-    # which the size command's loop takes the hot steady state's columns out of one run (analysis.motors.hot_columns)
+    # which the size command's loop takes the hot steady state's columns out of one run (sizing.thermal.hot_columns)
     hot_columns: bool = False
     # 'servo': the ideal PD servo above (the torque demand); 'dcmotor': each motor is MuJoCo's dcmotor, a
     # catalogue motor with its gearhead (batchveh/model/motors.py) driven by batchveh's drive (model/drive.py:

@@ -1,6 +1,6 @@
 """What the screen needs of a vehicle and its scenario beside the servo's rows: each variant's imposed wheel
 acceleration (the rotor's share of the peak), a straight line's speed ramp, and a duty cycle's accelerating and
-standing segments (`batchveh.analysis.motors.screen_one`'s and `segment_ramp`'s `ramp`)."""
+standing segments (`batchveh.sizing.screening.screen_one`'s and `segment_ramp`'s `ramp`)."""
 
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ def wheel_accel(spec: Any, df: Any) -> Any:
 
 
 def ramp_of(spec: Any, df: Any) -> dict[str, Any] | None:
-    """The straight line's ramp for the screen (`motors.screen_one`'s `ramp`), each variant's own: the imposed
+    """The straight line's ramp for the screen (`screening.screen_one`'s `ramp`), each variant's own: the imposed
     wheel speed (rad/s), what each drive accelerates without its rotor (kg m^2: a quarter of the vehicle's mass,
     the payload's with it, at the wheel's radius, and the wheel as a solid disc), the ramp time, the window, the
     drive law, and the four wheels' grip at the wheel, mu M g cos(slope) r (N m); None for a scenario without a
@@ -82,7 +82,7 @@ def _drive_inertia(spec: Any, df: Any) -> Any:
 
 
 def mission_ramp(spec: Any, df: Any) -> dict[str, Any]:
-    """A duty cycle's ramp for the screen (`analysis.motors.segment_ramp`): each accelerating segment's transition,
+    """A duty cycle's ramp for the screen (`sizing.screening.segment_ramp`): each accelerating segment's transition,
     duration and the span it starts from (the previous one where it ends at its speed, else None: standstill),
     the spans where the vehicle stands while it steers (`standing`: a drive's peak there is not judged), each
     variant's drive inertia (`_drive_inertia`) and the servo's armature."""

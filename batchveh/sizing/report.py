@@ -24,21 +24,18 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from batchveh.analysis.motors import (
+from batchveh.analysis.demand import GROUPS, WHEELS
+from batchveh.sizing.figures import coverage_by_ratio, sheet_points
+from batchveh.sizing.loop import (
     DIFFER,
-    GROUPS,
     IN_LOOP_REASONS,
     IN_LOOP_TEXT,
-    REASON_TEXT,
-    REASONS,
     STEER_REASONS,
     STEER_TEXT,
-    WHEELS,
     best_in_loop,
-    bound_at_wheel,
     not_simulated,
 )
-from batchveh.sizing.figures import coverage_by_ratio, sheet_points
+from batchveh.sizing.screening import REASON_TEXT, REASONS, bound_at_wheel
 from batchveh.sizing.windows import LIMIT_TEXT, window_text
 
 FIGURES = "figures"
@@ -59,7 +56,7 @@ class Sizing:
     steer: str
     share: float
     catalogue: dict[str, Any]  # name -> batchveh.model.motors.DCMotor
-    battery: Any = None  # batchveh.analysis.motors.Battery or None
+    battery: Any = None  # batchveh.model.battery.Battery or None
     trace: pd.DataFrame | None = None  # the worst variant's time series (batchveh.size.trace)
     worst: dict[str, Any] = field(default_factory=dict)  # the worst variant's parameter values
     versions: dict[str, str] = field(default_factory=dict)
@@ -267,7 +264,7 @@ def torque_speed(ax, s: Sizing, name: str) -> None:
     shared = "servo's RMS, worst wheel (the screen's demand;\nat most the bound where the other wheels can share)"
     ax.scatter(demand["wheel_speed"], rms_servo, s=5, color="0.7", label=shared)
     speed = demand["wheel_speed"].to_numpy(float)
-    from batchveh.analysis.motors import mission_segments
+    from batchveh.sizing.screening import mission_segments
 
     segs = mission_segments(d) if d is not None else []
     if segs:  # a duty cycle: each segment's peak torque at its peak speed, one colour a segment
@@ -524,7 +521,7 @@ def battery_over(s: Sizing) -> int:
 def steer_segments_line(s: Sizing) -> str:
     """A mission's steering demand by segment: which segment sets the steering's low-pass peak and its RMS, in how
     many variants, and the p99 of each, from the servo's run (the screen) and the chosen drive's run in the loop."""
-    from batchveh.analysis.motors import mission_segments
+    from batchveh.sizing.screening import mission_segments
 
     segs = mission_segments(s.servo)
     if not segs:

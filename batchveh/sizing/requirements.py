@@ -3,7 +3,7 @@ catalogue motor falls from it.
 
 Each figure is a nearest-rank quantile over the servo sweep's variants: the value that `share` of them need at
 most (with share 0.99 and 300 variants, the 297th smallest), taken on the worst of the group's four motors
-(`batchveh.analysis.motors.demand`), and it names the variant that sets it. At the wheel (the hinge for the
+(`batchveh.analysis.demand.demand`), and it names the variant that sets it. At the wheel (the hinge for the
 steering):
 
 - rms_torque: the RMS torque at the spec's duty, sqrt(duty) x the span's RMS (N m);
@@ -27,7 +27,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from batchveh.analysis.motors import GROUPS, bound_at_wheel, demand, terminal_voltage
+from batchveh.analysis.demand import GROUPS, demand
+from batchveh.sizing.screening import bound_at_wheel, terminal_voltage
 
 UNITS = {
     "rms_torque": "N m",

@@ -1,6 +1,6 @@
 """Each motor's ratio window: the ratios of its gearhead series at which it covers the share, and what closes each end.
 
-The screen (`batchveh.analysis.motors.screen`) judges every catalogue entry, and a catalogue with gearhead series
+The screen (`batchveh.sizing.screening.screen`) judges every catalogue entry, and a catalogue with gearhead series
 holds one entry per (motor, ratio) (model/gearheads.py). Grouped by the physical motor (`DCMotor.motor_name`):
 
 - the window is the ratios whose screen coverage reaches the share, from the lowest to the highest;

@@ -66,7 +66,7 @@ _PER_MOTOR = {
     "at_current_share": ("1", "share of the run's steps at the current limit"),
 }
 HOT_GRID = (5.0, 10.0, 20.0, 35.0, 55.0, 80.0, 110.0)  # K: the start rises each winding's peak is also kept at
-# MotorStatsConfig.hot: how the run's columns move with its windings' start rise (analysis.motors.hot_columns)
+# MotorStatsConfig.hot: how the run's columns move with its windings' start rise (sizing.thermal.hot_columns)
 HOT_COLUMNS = {
     "temp_gain": (
         "1",

@@ -324,7 +324,7 @@ def load_spec(path: str | Path) -> SweepSpec:
 
     Returns the SweepSpec: its scenario and vehicle with the fixed values set, the swept `params`, the
     sampling, `output` and the engine's settings; `batchveh.run_sweep(spec)` runs it, `spec.table()` counts
-    its variants, `batchveh.analysis.motors.in_loop(spec, ...)` re-runs its variants with real motors."""
+    its variants, `batchveh.sizing.in_loop(spec, ...)` re-runs its variants with real motors."""
     return spec_from_mapping(load_yaml(path), str(path))
 
 
