@@ -172,9 +172,10 @@ def test_the_loop_starts_below_the_screens_choice():
     table = pd.DataFrame({"motor": ["a", "b", "c", "d"], "coverage": np.array([0.2, 0.5, 0.99, 1.0])})
     assert candidates(table, "c") == ["b", "c", "d"]
     assert candidates(table, "a") == ["a", "b", "c", "d"]
-    assert candidates(table, None) == ["c", "d"]  # within 5 points of the best coverage
-    near = table.assign(coverage=[0.2, 0.96, 0.5, 0.93])
+    assert candidates(table, None) == ["c", "d"]  # within 2 points of the best coverage
+    near = table.assign(coverage=[0.2, 0.96, 0.5, 0.945])
     assert candidates(near, None) == ["b", "d"]
+    assert candidates(table.assign(coverage=[0.2, 0.96, 0.5, 0.93]), None) == ["b"]  # d: 3 points below
 
 
 def test_the_loop_batches_up_to_the_screens_choice():
@@ -215,17 +216,17 @@ def test_a_killed_session_resumes_from_its_finished_chunks(sized, tmp_path):
 
 
 def test_the_loop_runs_the_motor_below_the_choice_only_where_its_screen_is_near_the_share():
-    """The motor below the screen's choice runs in the loop where its screen coverage lies within 5 points of the
+    """The motor below the screen's choice runs in the loop where its screen coverage lies within 2 points of the
     share (the loop may take it); further below, the loop starts at the choice, and the report says why."""
     from batchveh.sizing.plan import not_run
 
     table = pd.DataFrame({"motor": ["a", "b", "c", "d"], "coverage": np.array([0.2, 0.5, 0.99, 1.0])})
     assert candidates(table, "c", 0.99) == ["c", "d"]  # b: 50%, 49 points below
-    assert candidates(table.assign(coverage=[0.2, 0.95, 0.99, 1.0]), "c", 0.99) == ["b", "c", "d"]  # b: 4 below
-    assert candidates(table.assign(coverage=[0.2, 0.93, 0.99, 1.0]), "c", 0.99) == ["c", "d"]  # b: 6 below
+    assert candidates(table.assign(coverage=[0.2, 0.98, 0.99, 1.0]), "c", 0.99) == ["b", "c", "d"]  # b: 1 below
+    assert candidates(table.assign(coverage=[0.2, 0.96, 0.99, 1.0]), "c", 0.99) == ["c", "d"]  # b: 3 below
     assert candidates(table, "a", 0.99) == ["a", "b", "c", "d"]
     why = not_run(table, ["c", "d"], ["c"], "c", "c")
-    assert "more than 5 points below the share" in why["b"] and "smaller motor (c) covers" in why["d"]
+    assert "more than 2 points below the share" in why["b"] and "smaller motor (c) covers" in why["d"]
 
 
 def test_a_loop_run_whose_inputs_change_gets_another_folder():
