@@ -448,6 +448,7 @@ def record(ses: Session) -> Any:
         steer_ratios=ses.steer_ratios,
         steer_windows=ses.steer_wins,
         requirements=needs,
+        geometry=geometry_of(spec),
         catalogue=ses.cat,
         battery=ses.battery,
         trace=series,
@@ -462,6 +463,15 @@ def record(ses: Session) -> Any:
         },
         wall_s=ses.walls,
     )
+
+
+def geometry_of(spec: Any) -> str:
+    """The steering geometry the session sized (`model.vehicle.geometry_line`), and the swept keys that move it."""
+    from batchveh.model.vehicle import geometry_line
+
+    moving = [p for p in spec.params if p.startswith(("steering.", "chassis.length", "chassis.width", "wheel.x_cg",
+                                                      "wheel.y_cg"))]  # fmt: skip
+    return geometry_line(spec.vehicle) + (f" (the base vehicle's; swept: {', '.join(moving)})" if moving else "")
 
 
 def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:

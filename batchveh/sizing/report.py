@@ -73,6 +73,7 @@ class Sizing:
     steer_ratios: pd.DataFrame | None = None  # the steering's screen of every (motor, ratio)
     steer_windows: pd.DataFrame | None = None  # each steering motor's ratio window
     requirements: dict[str, Any] | None = None  # the requirement sheets (size.requirement_sheets)
+    geometry: str = ""  # the steering geometry sized: each wheel's trail and scrub radius (model.vehicle.geometry_line)
 
 
 def focus(s: Sizing) -> str | None:
@@ -603,6 +604,7 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
             "checks every motor against the ideal servo's demand; the loop runs the candidates, smallest first, as "
             "DC motors driven by batchveh's drive, from the hot steady state of back-to-back runs.",
         ),
+        *([("", "text", f"The vehicle sized: {s.geometry}.")] if s.geometry else []),
         *ratio_sections(s),
         ("Verdict: the drive motors", "table", verdict_table(s)),
         ("", "text", f"Screen misses: {screen}. Loop misses: {reasons}. Not simulated: a run that diverged or failed "
@@ -769,7 +771,7 @@ def write(folder: str | Path, s: Sizing) -> dict[str, Path]:
     paths["markdown"].write_text(markdown(s, figs))
     paths["html"].write_text(page(s, figs))
     verdicts(s).to_parquet(paths["verdicts"], index=False)
-    summary = {"chosen": s.chosen, "steer": s.steer, "share": s.share, "variants": len(s.servo),
+    summary = {"chosen": s.chosen, "steer": s.steer, "geometry": s.geometry, "share": s.share, "variants": len(s.servo),
                "screen": s.screen.to_dict(orient="records"), "loop": s.loop.to_dict(orient="records"),
                "steer_screen": None if s.steer_screen is None else s.steer_screen.to_dict(orient="records"),
                "steer_loop": None if s.steer_loop is None else s.steer_loop.to_dict(orient="records"),
