@@ -146,3 +146,17 @@ def test_paired_entries_load_unchanged_and_a_series_adds_its_ratios(tmp_path):
     assert cat["m_g-i10"].gear_efficiency == 0.7  # the pairing as written, not the series' 10:1
     assert cat["m_g-i20"].gear_ratio == 20.0 and cat["m_g-i20"].gear_efficiency == 0.9
     assert {m.motor_name for m in cat.values()} == {"m"}
+
+
+@pytest.mark.parametrize("series, motors, words", BAD)
+def test_the_size_command_gives_a_bad_series_one_line_and_exit_2(tmp_path, capsys, series, motors, words):
+    """The same bad catalogues through `python -m batchveh.size --dry-run`: one line on stderr, exit 2."""
+    from pathlib import Path
+
+    from batchveh.size import EXIT_INPUT, main
+
+    spec = Path(__file__).resolve().parent.parent / "sweeps" / "delivery_robot.yaml"
+    path = _catalogue(tmp_path, series=series, motors=motors)
+    rc = main([str(spec), "--catalogue", str(path), "--dry-run"])
+    err = capsys.readouterr().err.strip()
+    assert rc == EXIT_INPUT and err.count("\n") == 0 and words in err and "Traceback" not in err, err
