@@ -24,6 +24,7 @@ import os
 import sys
 import threading
 import time
+from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -40,6 +41,7 @@ from batchveh.config import ConfigError, OneLineParser  # noqa: E402
 from batchveh.stepping.motor_stats import MOTOR_STATUS  # noqa: E402
 from batchveh.sweeping.chunks import ChunkRunner  # noqa: E402
 from batchveh.sweeping.results import PART, Locked, ResultError, ResultFolder, load  # noqa: E402
+from batchveh.sweeping.retry import Finished, Note, quiet  # noqa: E402
 from batchveh.sweeping.spec import MAX_VARIANTS, SweepSpec, load_spec, saltelli_block  # noqa: E402
 
 if TYPE_CHECKING:
@@ -202,13 +204,7 @@ class InProcess:
         self.runner, self.folder = ChunkRunner(spec, backend, n, chunk_size), folder
         return self.runner.manifest, self.runner.device
 
-    def run(
-        self,
-        todo: list[int],
-        finished: Callable[[int, str, dict], None],
-        note: Callable[[str], None],
-        phase: Callable[[str], None] = lambda _: None,
-    ) -> dict[int, str]:
+    def run(self, todo: list[int], finished: Finished, note: Note, phase: Note = quiet) -> dict[int, str]:
         """Run and write the chunks in `todo`, calling finished(chunk, part name, record) after each and
         phase(what) as each phase of a chunk starts; return the chunks that failed (none: an error here
         stops the sweep)."""
@@ -301,12 +297,29 @@ def run_sweep(
             )
             t_start = time.perf_counter()
             ran = 0
+            # the bar moves within a chunk: the variant-steps this process's engine reports (MuJoCo C, block by
+            # block), shown as variants; the rest of a chunk's variants once it is written
+            n_steps, shown, stepped, counting = spec.stats_config().n_steps, Counter(), Counter(), threading.Lock()
+
+            def simulated(c: int, variant_steps: int) -> None:
+                with counting:
+                    stepped[c] += variant_steps
+                    now = min(size[c], stepped[c] // n_steps)
+                    if now > shown[c]:
+                        bar.update(now - shown[c])
+                        shown[c] = now
 
             def finished(c: int, name: str, rec: dict[str, Any]) -> None:
                 nonlocal ran
                 folder.record(name, rec)
                 ran += size[c]
-                bar.update(size[c])
+                with counting:
+                    bar.update(size[c] - shown.pop(c, 0))
+                    stepped.pop(c, None)
+
+            runner = getattr(executor, "runner", None)  # this process's engine, where it runs chunks
+            if progress and runner is not None:
+                runner.progress = simulated
 
             try:
                 failed = executor.run(todo, finished, note, phase=lambda what: bar.set_postfix_str(what, refresh=True))

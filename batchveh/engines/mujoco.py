@@ -6,6 +6,8 @@ same `stats` reduction as MJX's, in numpy) and another computes the next block's
 controls. A simulation whose MuJoCo warning counters rise (NaN, Inf or huge qpos,
 qvel or qacc: MuJoCo would reset it) stops stepping in `rollout`; it is reported
 `diverged`, and MuJoCo's warning text is kept as data (`warnings`), not printed.
+`progress`, where set, hears the variant-steps simulated as each block is stepped (a
+progress bar that moves within a chunk); it reads nothing of the simulation's numbers.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import atexit
 import contextlib
 import copy
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from functools import partial
 from typing import Any
 
@@ -89,6 +91,9 @@ class MujocoEngine:
     implementation = f"MuJoCo C {mujoco.__version__} through mujoco.batch, float64"
     compile_s = 0.0
     compiles = 0
+    # progress(k): k more variant-steps simulated, called after each block of each part (from the part's thread;
+    # from this thread as each part in a worker process ends); None: nobody listens
+    progress: Callable[[int], None] | None = None
 
     def __init__(
         self,
@@ -173,7 +178,14 @@ class MujocoEngine:
 
         pool = _process_pool(min(self.nthread, MAX_PROCESSES))
         try:
-            return list(pool.map(partial(_run_part_alone, self.scenario, self.cfg, self.block), pieces))
+            done = []
+            for piece, got in zip(
+                pieces, pool.map(partial(_run_part_alone, self.scenario, self.cfg, self.block), pieces), strict=True
+            ):
+                done.append(got)
+                if self.progress is not None:
+                    self.progress(piece.n * self.cfg.n_steps)
+            return done
         except BrokenProcessPool:
             _drop_pool()
             return None
@@ -306,6 +318,8 @@ class MujocoEngine:
                     except SimulationError:
                         rec = out  # failed simulations are marked below; their records repeat
                 failed = failed | (np.asarray(b.status) != 0) | (b.warning[:, UNSTABLE, 1].sum(-1) > 0)
+                if self.progress is not None:
+                    self.progress(batch.n * len(steps))
                 if pending is not None:
                     accs = pending.result()
                 if k + 2 < len(edges):

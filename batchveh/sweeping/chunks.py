@@ -14,6 +14,7 @@ import os
 import platform
 import time
 from collections.abc import Callable
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -37,7 +38,12 @@ class ChunkRunner:
     `chunk_size` None: the engine's automatic size for `n / workers` variants, so that a sweep
     spread over `workers` processes has at least one chunk for each. `nthread`: MuJoCo C threads
     (0: the engine's default). Raises ConfigError, naming the spec file, for a setting the
-    backend cannot run."""
+    backend cannot run.
+
+    `progress`, where set, hears progress(chunk, variant-steps) as the engine steps a chunk (the MuJoCo C
+    engine, block by block; the others say nothing before the chunk ends)."""
+
+    progress: Callable[[int, int], None] | None = None
 
     def __init__(
         self,
@@ -132,6 +138,8 @@ class ChunkRunner:
         """The prepared chunk run on the engine: its rows, then the statistics columns and `status`."""
         c, rows, batch, prepare_s = prepared
         t0 = time.perf_counter()
+        if hasattr(self.engine, "progress"):  # the engine tells the variant-steps it simulates, block by block
+            self.engine.progress = None if self.progress is None else partial(self.progress, c)
         res = course.flag(self.engine.run(batch), batch.params, self.spec.scenario.obstacle)
         cols = {k: np.asarray(v) for k, v in motor_stats.named(res).items() if k != "status_code"}
         cols["status"] = [stats.STATUS[int(s)] for s in np.asarray(res["status_code"])]

@@ -24,11 +24,11 @@ refused there and off by default (docs/multi-gpu.md).
 
 Faults. A worker that dies is restarted by Ray (up to MAX_RESTARTS times), and the chunk
 it was running goes back into the queue, to whichever worker is free first (or to this
-process, where it works beside them). A chunk runs at most MAX_ATTEMPTS times on Ray workers; after that
-it is reported by name and the others go on; an error in this process's own chunk stops the
-sweep, as without Ray. Nothing is written twice: a part is renamed into place whole, and the
-driver records a chunk once, when it is reported written. A driver that dies takes its
-workers with it; `--resume` then skips the parts in the manifest, whoever wrote them.
+process, where it works beside them). A chunk runs at most MAX_ATTEMPTS times on Ray workers; after
+that it is reported by name and the others go on (`retry.Retries`, the policy the GPU processes share);
+an error in this process's own chunk stops the sweep, as without Ray. Nothing is written twice: a part
+is renamed into place whole, and the driver records a chunk once, when it is reported written. A driver
+that dies takes its workers with it; `--resume` then skips the parts in the manifest, whoever wrote them.
 
 Ray is imported only here, and only when a sweep runs on it: `pip install -e ".[ray]"`.
 For tests and benchmarks: BATCHVEH_FAIL_CHUNKS=2,5 in the workers' environment makes
@@ -48,18 +48,16 @@ import sys
 import threading
 import time
 from collections import Counter, deque
-from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from batchveh.config import ConfigError
 from batchveh.sweeping.prestart import local_gpus
+from batchveh.sweeping.retry import MAX_ATTEMPTS, MAX_RESTARTS, Finished, Note, Retries, quiet
 
 if TYPE_CHECKING:
     from batchveh.sweeping.results import ResultFolder
     from batchveh.sweeping.spec import SweepSpec
 
-MAX_ATTEMPTS = 3  # runs of one chunk before it is reported failed
-MAX_RESTARTS = 3  # restarts of one worker after its process died
 PROBE_WAIT = 0.1  # s between readiness probes of a worker that Ray is restarting
 # This process beside the workers: chunks of at least MIN_SHARED_CHUNK variants (the warp engine's rate is flat from
 # 65k variants up on the elliptic contact: benchmarks/results/archive.json: h200-warp-elliptic10.json), up to
@@ -168,6 +166,15 @@ def merged_stats(stats: list[dict[str, Any]]) -> dict[str, Any]:
         "compiles": sum(s["compiles"] for s in stats),
         "warnings": [w for s in stats for w in s["warnings"]][:5],
     }
+
+
+def differs(manifest: dict[str, Any], theirs: dict[str, Any]) -> str | None:
+    """Why a worker whose engine records `theirs` cannot write parts of the sweep whose manifest is `manifest`: the
+    first setting that differs, in words; None where none does."""
+    for k in manifest:
+        if theirs.get(k) != manifest[k]:
+            return f"it differs in {k}: {theirs.get(k)!r}, here {manifest[k]!r}"
+    return None
 
 
 def _cpus() -> int:
@@ -290,6 +297,35 @@ def disconnect() -> None:
     ray = sys.modules.get("ray")
     if ray is not None and ray.is_initialized():
         ray.shutdown()
+
+
+def _why(err: BaseException) -> str:
+    """Why a chunk failed on a Ray worker, in words, from the RayError its result raised."""
+    from ray.exceptions import RayActorError, RayTaskError
+
+    if isinstance(err, RayTaskError):  # the chunk raised
+        cause = err.cause if getattr(err, "cause", None) is not None else err
+        return f"{type(cause).__name__}: {str(cause).strip().splitlines()[-1]}"
+    if isinstance(err, RayActorError):  # the worker's process died, or its node
+        return "its Ray worker died"
+    return f"{type(err).__name__} in Ray"  # Ray lost the result (an object store or a node failed)
+
+
+def _probed(ref: Any, a: Any, probes: dict[Any, tuple[Any, int | None]]) -> bool | None:
+    """A restarting worker `a` has answered its readiness probe `ref`: True, it is up again; False, it is gone for
+    good; None, Ray is still restarting it (then it is probed again, in `probes`, after PROBE_WAIT)."""
+    import ray
+    from ray.exceptions import ActorDiedError, RayActorError
+
+    try:
+        ray.get(ref)
+        return True
+    except ActorDiedError:
+        return False
+    except RayActorError:
+        time.sleep(PROBE_WAIT)
+        probes[a.__ray_ready__.remote()] = (a, None)
+        return None
 
 
 class RayExecutor:
@@ -484,13 +520,7 @@ class RayExecutor:
             self.starting[a.describe.remote()] = a
         self.event("workers asked", count=count, gpus=gpus[:count])
 
-    def run(
-        self,
-        todo: list[int],
-        finished: Callable[[int, str, dict], None],
-        note: Callable[[str], None],
-        phase: Callable[[str], None] = lambda _: None,
-    ) -> dict[int, str]:
+    def run(self, todo: list[int], finished: Finished, note: Note, phase: Note = quiet) -> dict[int, str]:
         """Run the chunks in `todo`, one at a time on each worker, calling finished(chunk, part
         name, record) as each is written; return {chunk: why} for those that kept failing. `phase`
         hears how many chunks are running."""
@@ -512,13 +542,7 @@ class RayExecutor:
         left = max(0.0, own[1] + c - time.perf_counter()) if own else 0.0
         return (outstanding + 1) * c + (0.0 if warm else self._compile_s or 0.0) < left + queued * c
 
-    def _run_shared(
-        self,
-        queue: deque[int],
-        finished: Callable[[int, str, dict], None],
-        note: Callable[[str], None],
-        phase: Callable[[str], None],
-    ) -> dict[int, str]:
+    def _run_shared(self, queue: deque[int], finished: Finished, note: Note, phase: Note) -> dict[int, str]:
         """This process takes chunks from the front of the queue and runs them here; before each, it
         collects what the Ray workers have finished and gives each worker chunks to hold (one while it
         starts, DEPTH once ready), so a worker never waits for this process."""
@@ -528,11 +552,10 @@ class RayExecutor:
         self._warm: set[Any] = set()  # workers that have run a chunk (compiled)
         self._restarting: set[Any] = set()
         self._dropped: set[Any] = set()
-        self._attempts: Counter[int] = Counter()
-        failed: dict[int, str] = {}
+        self._retries = Retries(note, self.max_attempts)
         runner, first = self.runner, True
         while True:
-            self._collect(queue, finished, note, failed, timeout=0)
+            self._collect(queue, finished, timeout=0)
             self._hand_out(queue)
             if queue:
                 c = queue.popleft()
@@ -552,9 +575,9 @@ class RayExecutor:
                 first = False
                 continue
             if not any(c is not None for _, c in self._out.values()):
-                return failed
+                return self._retries.failed
             phase(f"{sum(self._load.values())} chunks on Ray workers")
-            self._collect(queue, finished, note, failed, timeout=1.0)
+            self._collect(queue, finished, timeout=1.0)
 
     DEPTH = 2  # chunks a ready worker holds: one running, the next waiting on it
 
@@ -569,18 +592,11 @@ class RayExecutor:
                 self._load[a] += 1
                 self.event("chunk start", chunk=c, where=self._where(a))
 
-    def _collect(
-        self,
-        queue: deque[int],
-        finished: Callable[[int, str, dict], None],
-        note: Callable[[str], None],
-        failed: dict[int, str],
-        timeout: float,
-    ) -> None:
+    def _collect(self, queue: deque[int], finished: Finished, timeout: float) -> None:
         """Take in what is ready (a worker's engine built, a chunk written or failed, a restart done),
         waiting up to `timeout` s for the first."""
         import ray
-        from ray.exceptions import ActorDiedError, RayActorError, RayError, RayTaskError
+        from ray.exceptions import ActorDiedError, RayActorError, RayError
 
         refs = list(self._out) + list(self.starting)
         if not refs:
@@ -593,51 +609,39 @@ class RayExecutor:
             ready += more
         for ref in ready:
             if ref in self.starting:
-                self._joined(self.starting.pop(ref), ref, note)
+                self._joined(self.starting.pop(ref), ref, self._retries.note)
                 continue
             a, c = self._out.pop(ref)
             if c is None:  # a restarting worker's probe
-                try:
-                    ray.get(ref)
+                up = _probed(ref, a, self._out)
+                if up:
                     self._restarting.discard(a)
-                except ActorDiedError:
+                elif up is not None:
                     self._dropped.add(a)
-                except RayActorError:
-                    time.sleep(PROBE_WAIT)
-                    self._out[a.__ray_ready__.remote()] = (a, None)
                 continue
             self._load[a] -= 1
             try:
                 part = ray.get(ref)
-                self.event("chunk end", chunk=c, where=self._where(a))
-                finished(c, *part)
-                self._warm.add(a)
-                continue
-            except RayTaskError as err:  # the chunk raised
-                cause = err.cause if getattr(err, "cause", None) is not None else err
-                why = f"{type(cause).__name__}: {str(cause).strip().splitlines()[-1]}"
-            except RayActorError as err:  # the worker's process died, or its node
-                if a in self._dropped:  # let go here: its chunks go back, no attempt spent
+            except RayError as err:
+                if isinstance(err, RayActorError):  # the worker's process died, or its node
+                    if a in self._dropped:  # let go here: its chunks go back, no attempt spent
+                        queue.appendleft(c)
+                        continue
+                    self._warm.discard(a)  # a restarted worker compiles again
+                    self.event("worker died", chunk=c, where=self._where(a))
+                    if isinstance(err, ActorDiedError):
+                        self._dropped.add(a)
+                    elif a not in self._restarting:  # it takes chunks again once up
+                        self._restarting.add(a)
+                        self._out[a.__ray_ready__.remote()] = (a, None)
+                if self._retries.again(c, _why(err)):
                     queue.appendleft(c)
-                    continue
-                why = "its Ray worker died"
-                self._warm.discard(a)  # a restarted worker compiles again
-                self.event("worker died", chunk=c, where=self._where(a))
-                if isinstance(err, ActorDiedError):
-                    self._dropped.add(a)
-                elif a not in self._restarting:  # it takes chunks again once up
-                    self._restarting.add(a)
-                    self._out[a.__ray_ready__.remote()] = (a, None)
-            except RayError as err:  # Ray lost the result (an object store or a node failed)
-                why = f"{type(err).__name__} in Ray"
-            self._attempts[c] += 1
-            if self._attempts[c] < self.max_attempts:
-                note(f"chunk {c}: {why}; it runs again (attempt {self._attempts[c] + 1} of {self.max_attempts})")
-                queue.appendleft(c)
-            else:
-                failed[c] = f"failed {self._attempts[c]} times, last: {why}"
+                continue
+            self.event("chunk end", chunk=c, where=self._where(a))
+            finished(c, *part)
+            self._warm.add(a)
 
-    def _joined(self, a: Any, ref: Any, note: Callable[[str], None]) -> None:
+    def _joined(self, a: Any, ref: Any, note: Note) -> None:
         """A worker has answered `describe`: it takes chunks where it runs the sweep as this process
         does, else it is let go with a note (the chunks it holds go back to the queue)."""
         import ray
@@ -648,12 +652,7 @@ class RayExecutor:
         except RayError as err:
             why = f"it did not start ({type(err).__name__})"
         else:
-            why = info["error"]
-            if not why:
-                differ = [k for k in self.manifest if info["manifest"].get(k) != self.manifest[k]]
-                if differ:
-                    k = differ[0]
-                    why = f"it differs in {k}: {info['manifest'].get(k)!r}, here {self.manifest[k]!r}"
+            why = info["error"] or differs(self.manifest, info["manifest"])
         if why:
             note(f"a Ray worker is not used: {why}")
             self._dropped.add(a)
@@ -663,22 +662,15 @@ class RayExecutor:
         self.ready.append(a)
         self.event("worker ready", where=self._where(a), pid=info["pid"], device=info["device"])
 
-    def _dispatch(
-        self,
-        queue: deque[int],
-        finished: Callable[[int, str, dict], None],
-        note: Callable[[str], None],
-        phase: Callable[[str], None],
-    ) -> dict[int, str]:
+    def _dispatch(self, queue: deque[int], finished: Finished, note: Note, phase: Note) -> dict[int, str]:
         """Every chunk on the Ray workers, one at a time each."""
         import ray
-        from ray.exceptions import ActorDiedError, RayActorError, RayError, RayTaskError
+        from ray.exceptions import ActorDiedError, RayActorError, RayError
 
         idle = deque(self.actors)
         # object ref -> (worker, chunk); chunk None: a readiness probe of a worker Ray is restarting
         running: dict[Any, tuple[Any, int | None]] = {}
-        attempts: Counter[int] = Counter()
-        failed: dict[int, str] = {}
+        retries = Retries(note, self.max_attempts)
         while queue or running:
             while idle and queue:
                 a, c = idle.popleft(), queue.popleft()
@@ -686,46 +678,31 @@ class RayExecutor:
                 self.event("chunk start", chunk=c, where=self._where(a))
             phase(f"{len(running)} chunk{'s' * (len(running) > 1)} running on {len(self.actors)} workers")
             if not running:  # every worker is gone for good
-                failed.update({c: "no Ray worker left to run it" for c in queue})
+                retries.failed.update({c: "no Ray worker left to run it" for c in queue})
                 break
             [ref], _ = ray.wait(list(running), num_returns=1)
             a, c = running.pop(ref)
-            if c is None:  # a restarting worker's probe: it takes chunks once it answers
-                try:
-                    ray.get(ref)
+            if c is None:  # a restarting worker's probe: it takes chunks once it answers (not at all once gone)
+                if _probed(ref, a, running):
                     idle.append(a)
-                except ActorDiedError:
-                    pass  # gone for good
-                except RayActorError:
-                    time.sleep(PROBE_WAIT)
-                    running[a.__ray_ready__.remote()] = (a, None)
                 continue
             try:
                 part = ray.get(ref)
-                self.event("chunk end", chunk=c, where=self._where(a))
-                finished(c, *part)
-                idle.append(a)
+            except RayError as err:
+                if not isinstance(err, RayActorError):  # the chunk raised, or Ray lost its result: the worker is up
+                    idle.append(a)
+                else:  # the worker's process died, or its node
+                    self.event("worker died", chunk=c, where=self._where(a))
+                    if not isinstance(err, ActorDiedError):  # restarting: it takes chunks again once up;
+                        # a chunk sent before then would fail at once and spend an attempt of its own
+                        running[a.__ray_ready__.remote()] = (a, None)
+                if retries.again(c, _why(err)):
+                    queue.append(c)
                 continue
-            except RayTaskError as err:  # the chunk raised
-                cause = err.cause if getattr(err, "cause", None) is not None else err
-                why = f"{type(cause).__name__}: {str(cause).strip().splitlines()[-1]}"
-                idle.append(a)
-            except RayActorError as err:  # the worker's process died, or its node
-                why = "its Ray worker died"
-                self.event("worker died", chunk=c, where=self._where(a))
-                if not isinstance(err, ActorDiedError):  # restarting: it takes chunks again once up;
-                    # a chunk sent before then would fail at once and spend an attempt of its own
-                    running[a.__ray_ready__.remote()] = (a, None)
-            except RayError as err:  # Ray lost the result (an object store or a node failed)
-                why = f"{type(err).__name__} in Ray"
-                idle.append(a)
-            attempts[c] += 1
-            if attempts[c] < self.max_attempts:
-                note(f"chunk {c}: {why}; it runs again (attempt {attempts[c] + 1} of {self.max_attempts})")
-                queue.append(c)
-            else:
-                failed[c] = f"failed {attempts[c]} times, last: {why}"
-        return failed
+            self.event("chunk end", chunk=c, where=self._where(a))
+            finished(c, *part)
+            idle.append(a)
+        return retries.failed
 
     def _where(self, a: Any) -> str:
         return f"worker {self.actors.index(a)}" if a in self.actors else "worker"

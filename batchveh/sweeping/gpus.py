@@ -27,9 +27,10 @@ Faults. A worker process that dies: the chunks it held go back to the front of t
 simulated counts an attempt), and a new worker
 starts on that GPU (up to MAX_RESTARTS times). A chunk that raises in a worker goes back too. A chunk runs
 at most MAX_ATTEMPTS times on workers; after that it is reported by name (`run` returns it) and the others
-go on. An error in the driver's own chunk stops the sweep, as `--executor local`. A worker whose engine
-cannot run the spec (ConfigError) or whose manifest differs from the driver's is not used, with a note. A
-driver that dies takes its workers with it (each ends when its pipe closes, at the latest after its chunk).
+go on (`retry.Retries`, the policy the Ray executor shares). An error in the driver's own chunk stops the
+sweep, as `--executor local`. A worker whose engine cannot run the spec (ConfigError) or whose manifest
+differs from the driver's (`cluster.differs`) is not used, with a note. A driver that dies takes its workers
+with it (each ends when its pipe closes, at the latest after its chunk).
 
 Small sweeps: where `alone_reason` (with GPU_PROCESS_START_S) says a second GPU would not pay, no worker is
 started and the sweep runs in this process exactly as `--executor local`; the device words say so. The CLI
@@ -55,7 +56,6 @@ import sys
 import threading
 import time
 from collections import Counter, deque
-from collections.abc import Callable
 from multiprocessing.connection import wait
 from typing import TYPE_CHECKING, Any
 
@@ -64,15 +64,15 @@ from batchveh.engines.common import spawn_safe, warp_installed
 from batchveh.sweeping import prestart
 from batchveh.sweeping.chunks import Pipeline
 from batchveh.sweeping.cluster import (
-    MAX_ATTEMPTS,
-    MAX_RESTARTS,
     ChunkWorker,
     Timeline,
     alone_reason,
+    differs,
     local_gpus,
     merged_stats,
     shared_chunk,
 )
+from batchveh.sweeping.retry import MAX_ATTEMPTS, MAX_RESTARTS, Finished, Note, Retries, quiet
 
 if TYPE_CHECKING:
     from batchveh.sweeping.results import ResultFolder
@@ -205,11 +205,10 @@ class GpuProcesses:
         self._running = False  # `run` has filled the queue
         self._mine: list[int] = []  # the chunks this process holds: handed ahead, simulated, being written
         self._ahead: int | None = None  # of them, the one handed to it ahead, not begun
-        self._attempts: Counter[int] = Counter()
-        self._failed: dict[int, str] = {}
-        self._finished: Callable[[int, str, dict], None] | None = None
+        self._finished: Finished | None = None
         self._notes: list[str] = []  # notes before `run` gives the callback
-        self._note: Callable[[str], None] = self._notes.append
+        self._note: Note = self._notes.append
+        self._retries = Retries(lambda text: self._note(text), max_attempts)
         self._error: BaseException | None = None  # from the background thread, raised in `run`
         self._stopping = self._closing = False
         self._thread: threading.Thread | None = None
@@ -297,13 +296,12 @@ class GpuProcesses:
         slot.ahead = ahead is not None
         slot.proc, slot.conn, slot.state, slot.info, slot.chunks, slot.running = proc, here, "starting", None, [], None
 
-    def run(
-        self,
-        todo: list[int],
-        finished: Callable[[int, str, dict], None],
-        note: Callable[[str], None],
-        phase: Callable[[str], None] = lambda _: None,
-    ) -> dict[int, str]:
+    @property
+    def _attempts(self) -> Counter[int]:
+        """How often each chunk has failed on a worker (`retry.Retries`)."""
+        return self._retries.attempts
+
+    def run(self, todo: list[int], finished: Finished, note: Note, phase: Note = quiet) -> dict[int, str]:
         """Run the chunks in `todo`, here and on the workers, calling finished(chunk, part name, record) as
         each is written; return {chunk: why} for those that kept failing on the workers. An error in this
         process's own chunk stops the sweep. Each process, this one too, is handed its next chunk while it
@@ -335,7 +333,7 @@ class GpuProcesses:
                         pipe.ahead(ahead)
                     pipe.write(c, pipe.simulate(c), self._written_here)
             with self._cond:
-                return dict(self._failed)
+                return dict(self._retries.failed)
         finally:
             with self._cond:
                 self._stopping = True  # every chunk is written or failed, or this process's chunk raised
@@ -368,7 +366,7 @@ class GpuProcesses:
         for c in self._queue:
             # a chunk that failed on a worker (or killed it) is not run here while a worker is up: it could
             # take this process, and the whole sweep, with it
-            if not up or not (c in self._fail or c == self._kill or self._attempts[c] > 0):
+            if not up or not (c in self._fail or c == self._kill or self._retries.tried(c)):
                 self._queue.remove(c)
                 self._mine.append(c)
                 return c
@@ -428,12 +426,8 @@ class GpuProcesses:
                 self.timeline.add("chunk handed", chunk=c, where=slot.where)
 
     def _admit(self, slot: _Slot) -> None:
-        info, why = slot.info, slot.info["error"]
-        if not why:
-            differ = [k for k in self.manifest if info["manifest"].get(k) != self.manifest[k]]
-            if differ:
-                k = differ[0]
-                why = f"it differs in {k}: {info['manifest'].get(k)!r}, here {self.manifest[k]!r}"
+        info = slot.info
+        why = info["error"] or differs(self.manifest, info["manifest"])
         if why:
             self._note(f"the worker process on GPU {slot.gpu} is not used: {why}")
             slot.state = "gone"
@@ -527,12 +521,8 @@ class GpuProcesses:
 
     def _again(self, c: int, why: str) -> None:
         """Chunk `c` failed on a worker: back to the front of the queue, or reported after max_attempts."""
-        self._attempts[c] += 1
-        if self._attempts[c] < self.max_attempts:
-            self._note(f"chunk {c}: {why}; it runs again (attempt {self._attempts[c] + 1} of {self.max_attempts})")
+        if self._retries.again(c, why):
             self._queue.appendleft(c)
-        else:
-            self._failed[c] = f"failed {self._attempts[c]} times, last: {why}"
 
     def engine_stats(self) -> dict[str, Any]:
         """Compiles summed over this process and the workers (each worker's as of its last chunk), the longest
