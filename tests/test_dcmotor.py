@@ -318,7 +318,8 @@ def test_a_climb_too_steep_for_the_speed_sits_on_the_voltage_line(tmp_path):
 
 def test_the_catalogue_holds_six_cited_motors_whose_datasheet_values_agree():
     """notebooks/motors.yaml: every entry loads (K, R and the nominal triple within 5%), at least
-    six, each citing its source, with a thermal model and a gearhead."""
+    six, each citing its source (a motor at a ratio of a gearhead series: its motor's entry and its series both),
+    with a thermal model and a gearhead."""
     from pathlib import Path
 
     from batchveh.config import load_yaml
@@ -326,9 +327,15 @@ def test_the_catalogue_holds_six_cited_motors_whose_datasheet_values_agree():
 
     path = Path(__file__).resolve().parent.parent / "notebooks" / "motors.yaml"
     motors = load_catalogue(path)
-    raw = {m["name"]: m for m in load_yaml(path)["motors"]}
+    data = load_yaml(path)
+    raw = {m["name"]: m for m in data["motors"]}
+    by_motor = {m.get("motor", m["name"]): m for m in data["motors"]}
+    series = {s["name"]: s for s in data.get("gearhead_series", [])}
     assert len(motors) >= 6
     for name, motor in motors.items():
         c = motor.resolved(name)
-        assert str(raw[name].get("source", "")).startswith("http"), name
+        entry = raw.get(name) or by_motor[motor.motor_name]
+        assert str(entry.get("source", "")).startswith("http"), name
+        if motor.series:
+            assert str(series[motor.series].get("source", "")).startswith("http"), name
         assert c["R_T"] > 0 and c["C"] > 0 and c["N"] > 1 and 0 < c["eta"] < 1, name
