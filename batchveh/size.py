@@ -320,18 +320,31 @@ def screen_phase(ses: Session) -> None:
     ses.span = span
     ses.common = {"share": args.share, "params": list(spec.params), "duty": spec.duty, "span": span}
     ses.drive_kw = {"armature": spec.vehicle.motors.armature, "accel": wheel_accel(spec, df), "ramp": ramp_of(spec, df)}
-    # every (motor, ratio) of the catalogue, then each motor's window; the loop walks one ratio a motor
-    _, ses.ratios, _ = screen(df, cat, **ses.drive_kw, **ses.common)
+    # every (motor, ratio) of the catalogue (counts only), then each motor's window; the loop walks one ratio a
+    # motor, those rows screened again in detail (the commonest first miss)
+    _, ses.ratios, _ = screen(df, cat, detail=False, **ses.drive_kw, **ses.common)
     ses.wins = windows(ses.ratios, cat, args.share)
-    ses.table, ses.best = loop_table(ses.ratios, ses.wins), best_of(ses.wins)
-    _, ses.steer_ratios, _ = screen(df, cat, group="steer", **ses.common)
+    ses.best = best_of(ses.wins)
+    ses.table = loop_table(detailed(df, cat, ses.wins, ses.drive_kw, ses.common), ses.wins)
+    _, ses.steer_ratios, _ = screen(df, cat, group="steer", detail=False, **ses.common)
     ses.steer_wins = windows(ses.steer_ratios, cat, args.share)
-    ses.steer_table = loop_table(ses.steer_ratios, ses.steer_wins)
+    given = [args.steer] if args.steer is not None else []
+    steer_rows = detailed(df, cat, ses.steer_wins, {"group": "steer"}, ses.common, given)
+    ses.steer_table = loop_table(steer_rows, ses.steer_wins)
     if args.steer is not None:  # the (motor, ratio) given stands for its motor
-        ses.steer_table = with_entry(ses.steer_table, ses.steer_ratios, args.steer, cat)
+        ses.steer_table = with_entry(ses.steer_table, steer_rows, args.steer, cat)
     ses.steer = args.steer or steering(ses.steer_table, args.share)
     ses.runs = candidates(ses.table, ses.best, args.share)
     ses.walls["screen"] = time.perf_counter() - t0
+
+
+def detailed(df: Any, cat: dict, wins: Any, kw: dict, common: dict, extra: list[str] = ()) -> Any:
+    """The screen's rows, in detail, of each motor's ratio in `wins` (and the names in `extra`)."""
+    from batchveh.sizing import screen
+
+    names = list(dict.fromkeys([*wins["chosen"], *extra]))
+    _, table, _ = screen(df, {name: cat[name] for name in names}, **kw, **common)
+    return table
 
 
 def loop_phase(ses: Session) -> None:

@@ -97,3 +97,21 @@ def test_a_drives_peak_while_the_vehicle_steers_in_place_is_not_judged():
     _, strict, _ = screen(df, cat, share=0.99, span="mission", params=[], ramp=RAMP)
     _, held, _ = screen(df, cat, share=0.99, span="mission", params=[], ramp=standing)
     assert strict["fails_peak"].iloc[0] == 1 and held["coverage"].iloc[0] == 1.0
+
+
+@pytest.mark.parametrize("law", ["smooth_step", "ramp", "unbounded_ramp"])
+def test_the_ramps_verdict_by_its_threshold_is_the_stepped_models(law):
+    """`ramp_short` (a comparison against the threshold found once per ramp time) against the stepped model's
+    `ramp_shortfall > SHORT_SHARE` on 4,000 draws over three ramp times, speeds 1-30 rad/s and bounds from a tenth
+    of the ramp's mean acceleration to twice its peak: the same verdict on every draw."""
+    from batchveh.sizing.screening import ramp_short, ramp_shortfall
+
+    rng = np.random.default_rng(7)
+    n = 4000
+    ramp_time = rng.choice([1.0, 2.0, 3.5], n)
+    speed = rng.uniform(1.0, 30.0, n)
+    a_max = speed / ramp_time * rng.uniform(0.1, 3.75, n)
+    window = (2.5, 5.0)
+    stepped = ramp_shortfall(speed, ramp_time, window, a_max, law) > SHORT_SHARE
+    assert 0.1 < stepped.mean() < 0.9  # both verdicts drawn
+    np.testing.assert_array_equal(ramp_short(speed, ramp_time, window, a_max, law, SHORT_SHARE), stepped)

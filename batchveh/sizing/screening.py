@@ -4,6 +4,7 @@ and a duty cycle's segments (`mission_segments`, `segment_ramp`) included."""
 
 from __future__ import annotations
 
+import functools
 import os
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
@@ -100,6 +101,51 @@ def _ramp_shortfall(speed: np.ndarray, ramp_time: np.ndarray, window: tuple[floa
     return np.where(want > 0, 1.0 - got / np.where(want > 0, want, 1.0), 0.0)
 
 
+THRESHOLD_GRID = 512  # the candidates of each round of `ramp_threshold`'s search
+THRESHOLD_ROUNDS = 4  # rounds: the threshold within (its bracket / THRESHOLD_GRID) ** 4, about 1e-11 of it
+MANY_RAMPS = 64  # more distinct (ramp time, window) pairs than this: the stepped model per variant instead
+
+
+@functools.lru_cache(maxsize=256)
+def ramp_threshold(ramp_time: float, window: tuple[float, float], law: str, share: float) -> float:
+    """The bounded acceleration, as a share of the ramp's mean (a_max T / speed), at which `ramp_shortfall` falls to
+    `share`: below it the wheel falls more than `share` behind. The stepped model scales exactly with speed (its
+    grid is the window's, its steps a_max dt): its shortfall is a function of a_max T / speed, the window over T
+    and the law alone, and it falls as a_max grows. Found by searching that function on grids of THRESHOLD_GRID
+    candidates, THRESHOLD_ROUNDS rounds, each within the bracket of the last; inf where even the law's peak
+    acceleration leaves the wheel `share` behind (it never does: at the peak it is on speed), 0 where none does."""
+    lo, hi = 1e-6, 1e3
+    for _ in range(THRESHOLD_ROUNDS):
+        alphas = np.geomspace(lo, hi, THRESHOLD_GRID)
+        short = ramp_shortfall(
+            np.ones(THRESHOLD_GRID), np.full(THRESHOLD_GRID, ramp_time), window, alphas / ramp_time, law
+        )
+        over = np.flatnonzero(short > share)
+        if not len(over):
+            return 0.0 if lo == 1e-6 else lo
+        k = over[-1]  # the largest candidate still short
+        if k == THRESHOLD_GRID - 1:
+            return hi
+        lo, hi = alphas[k], alphas[k + 1]
+    return float(hi)
+
+
+def ramp_short(speed: Any, ramp_time: Any, window: tuple[float, float], a_max: Any, law: str, share: float):
+    """Per variant, whether `ramp_shortfall` exceeds `share`: a_max below `ramp_threshold` x speed / ramp time, the
+    threshold found once per distinct ramp time (the stepped model per variant where they are more than
+    MANY_RAMPS). The same verdicts as the stepped model's but at its threshold's last digits, in a comparison per
+    variant instead of RAMP_STEPS steps: the screen of every (motor, ratio) of a catalogue at 100,000 conditions."""
+    speed, ramp_time, a_max = np.broadcast_arrays(*(np.asarray(x, float) for x in (speed, ramp_time, a_max)))
+    times = np.unique(ramp_time)
+    if len(times) > MANY_RAMPS:
+        return ramp_shortfall(speed, ramp_time, window, a_max, law) > share
+    alpha = np.empty(speed.shape)
+    for t in times:
+        alpha[ramp_time == t] = ramp_threshold(float(t), tuple(float(x) for x in window), law, float(share))
+    mean = np.abs(speed) / np.maximum(ramp_time, 1e-12)
+    return a_max < alpha * mean
+
+
 def _can_share(need: pd.DataFrame, what: str, bound: float, grip: Any = None) -> pd.Series:
     """Per variant, whether the four drives can give the four wheels' `what` (`rms` or `peak_window`) together
     with each at most `bound` and at most its grip: sum_j min(bound, T_j / u) >= sum_j T_j, where u = sum_j T_j /
@@ -183,8 +229,7 @@ def screen_one(
     if ramp is not None and c["i_max"] > 0:
         steady = need["rms_mean"] if "rms_mean" in need else need["rms"]  # the four share the vehicle's pull
         a_max = np.maximum(bound - steady.to_numpy(), 0.0) / (np.asarray(ramp["inertia"], float) + c["J"] * n * n)
-        out["ramp_shortfall"] = ramp_shortfall(ramp["speed"], ramp["ramp_time"], ramp["window"], a_max, ramp["law"])
-        out["peak"] |= out["ramp_shortfall"] > SHORT_SHARE
+        out["peak"] |= ramp_short(ramp["speed"], ramp["ramp_time"], ramp["window"], a_max, ramp["law"], SHORT_SHARE)
     out["speed"] = w_motor > c["V"] / k
     gear_torque = np.zeros(len(need), bool)
     if motor.gear_max_continuous_torque is not None:  # the torque the motor gives: at most its bound
@@ -212,6 +257,7 @@ def screen(
     duty: float = 1.0,
     ramp: dict[str, Any] | None = None,
     judged: Any = None,
+    detail: bool = True,
 ) -> tuple[str | None, pd.DataFrame, dict[str, pd.DataFrame]]:
     """The fast screen of a sweep's ideal-servo demand against DC motors with their gearheads.
 
@@ -240,7 +286,9 @@ def screen(
       of variants failing for it; a variant may fail for several);
     - failing: {name: DataFrame} per candidate, its failing variants (index of `df`): the `params`
       columns of `df` (default: every sweepable parameter's column in `df`), one boolean column per
-      reason (True = fails) and `where`, the span (a mission's segment) and reason it fails for first."""
+      reason (True = fails) and `where`, the span (a mission's segment) and reason it fails for first.
+    `detail` False: the table's counts alone (its `limiting` empty, no `failing`): the screen of every (motor, ratio)
+    of a catalogue, whose rows of interest are screened again with it."""
     if not 0 < share <= 1:
         raise ConfigError(f"share: {share!r} is not allowed; allowed: 0 < share <= 1")
     need = demand(df, group, span)
@@ -260,7 +308,9 @@ def screen(
         if span not in (None, "mission") and f"{span}_{GROUPS[group][0]}_drive_peak_lp" in df:  # one segment: its
             res["voltage"] = _segment_voltage(df, group, span, c) > c["V"]  # voltage as the mission's segments read it
             res["fits"] = ~res[list(REASONS)].any(axis=1)
-        where = _segments(df, group, segments, motor, res, cycle) if segments else _where(res, span or "window")
+        where = _segments(df, group, segments, motor, res, cycle) if segments else None
+        if detail and where is None:
+            where = _where(res, span or "window")
         row = {
             "motor": name,
             "gear_ratio": c["N"],
@@ -268,8 +318,10 @@ def screen(
             "coverage": float(res["fits"].to_numpy()[counted].mean()) if counted.any() else 0.0,
             "judged": int(counted.sum()),
             **{f"fails_{why}": int(res[why].to_numpy()[counted].sum()) for why in REASONS},
-            "limiting": _limiting(where[~res["fits"] & counted]),
+            "limiting": _limiting(where[~res["fits"] & counted]) if detail else "",
         }
+        if not detail:
+            return row, None
         bad = ~res["fits"] & counted
         return row, pd.concat([df.loc[bad, keep], res.loc[bad, list(REASONS)], where[bad].rename("where")], axis=1)
 
@@ -278,7 +330,7 @@ def screen(
     with ThreadPoolExecutor(max(1, min(len(catalogue), os.cpu_count() or 1))) as pool:
         done = list(pool.map(one, catalogue, catalogue.values()))
     rows = [row for row, _ in done]
-    failing = {name: bad for name, (_, bad) in zip(catalogue, done, strict=True)}
+    failing = {name: bad for name, (_, bad) in zip(catalogue, done, strict=True)} if detail else {}
     table = pd.DataFrame(rows).sort_values("continuous_torque_at_wheel").reset_index(drop=True)
     ok = table[table["coverage"] >= share]
     return (ok["motor"].iloc[0] if len(ok) else None), table, failing
