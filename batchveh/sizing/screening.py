@@ -146,20 +146,28 @@ def ramp_short(speed: Any, ramp_time: Any, window: tuple[float, float], a_max: A
     return a_max < alpha * mean
 
 
-def _can_share(need: pd.DataFrame, what: str, bound: float, grip: Any = None) -> pd.Series:
+def shares(need: pd.DataFrame, what: str, grip: Any = None) -> tuple[np.ndarray, np.ndarray]:
+    """What `_can_share` reads of the demand whatever the motor: each wheel's `what` (n, 4), over the friction the
+    wheels use where `grip` is given, and the four wheels' sum (less a rounding margin). `screen` makes it once for
+    all its motors."""
+    t = np.stack([need[f"{what}_{j}"].to_numpy(float) for j in range(4)], axis=-1)
+    total = t.sum(axis=-1)
+    if grip is not None:
+        used = total / np.maximum(np.asarray(grip, float), 1e-12)
+        t = t / np.maximum(used, 1e-12)[:, None]
+    return t, total * (1 - 1e-12)
+
+
+def _can_share(need: pd.DataFrame, what: str, bound: float, grip: Any = None, pre: dict | None = None) -> pd.Series:
     """Per variant, whether the four drives can give the four wheels' `what` (`rms` or `peak_window`) together
     with each at most `bound` and at most its grip: sum_j min(bound, T_j / u) >= sum_j T_j, where u = sum_j T_j /
     grip is the friction the wheels use (each wheel's grip T_j / u: the slip tyre's force is its load times one
     common slip, so each wheel's torque is its share of the load); without `grip`, sum_j min(bound, T_j) = the
     mean within the bound."""
-    t = np.stack([need[f"{what}_{j}"].to_numpy(float) for j in range(4)], axis=-1)
-    total = t.sum(axis=-1)
+    t, total = shares(need, what, grip) if pre is None else pre[what]
     if grip is None:
-        cap = np.full_like(t, bound)
-    else:
-        used = total / np.maximum(np.asarray(grip, float), 1e-12)
-        cap = np.minimum(bound, t / np.maximum(used, 1e-12)[:, None])
-    return pd.Series(cap.sum(axis=-1) >= total * (1 - 1e-12), index=need.index)
+        return pd.Series(np.full(t.shape, bound).sum(axis=-1) >= total, index=need.index)
+    return pd.Series(np.minimum(bound, t).sum(axis=-1) >= total, index=need.index)
 
 
 def screen_one(
@@ -170,6 +178,7 @@ def screen_one(
     accel: Any = 0.0,
     duty: float = 1.0,
     ramp: dict[str, Any] | None = None,
+    pre: dict[str, Any] | None = None,
 ) -> pd.DataFrame:
     """Per variant, whether `motor` (a batchveh.model.motors.DCMotor with its gearhead) covers the demand
     `need` (`demand`'s columns), and why not (one boolean column per REASONS entry, True = fails).
@@ -200,7 +209,8 @@ def screen_one(
     climbs (the worst wheel at its bound, the four-wheel sum the servo's, the speed held). Each wheel can take at
     most the bound, and at most its grip (`ramp['grip']`, mu M g cos(slope) r over the four wheels, shared in
     proportion to each wheel's torque: the slip tyre's force is its load times one common slip); `_can_share`.
-    Where they cannot, the worst wheel is judged on its own."""
+    Where they cannot, the worst wheel is judged on its own. `pre`: `shares` of `need` for both (`rms`,
+    `peak_window`), made once by `screen` for all its motors (None: made here)."""
     from batchveh.model.motors import COPPER_TEMPCOEF, REFERENCE_TEMP
 
     c = motor.resolved()
@@ -211,7 +221,7 @@ def screen_one(
     rms = need["rms"]
     if "rms_mean" in need:  # drives: the four share what one clipped wheel cannot give
         grip = None if ramp is None else ramp.get("grip")
-        shared = _can_share(need, "rms", bound, grip) & _can_share(need, "peak_window", bound, grip)
+        shared = _can_share(need, "rms", bound, grip, pre) & _can_share(need, "peak_window", bound, grip, pre)
         rms, window = rms.where(~shared, np.minimum(rms, bound)), window.where(~shared, np.minimum(window, bound))
     i_rms, i_peak = np.sqrt(duty) * rms / (eta * n * k), peak / (eta * n * k)
     w_motor = need["speed"] * n
@@ -300,11 +310,16 @@ def screen(
     segments = mission_segments(df) if span == "mission" else []
     counted = np.ones(len(df), bool) if judged is None else np.asarray(judged, bool)
 
+    straight_ramp = ramp if ramp is not None and "segments" not in ramp else None
+    grip = None if straight_ramp is None else straight_ramp.get("grip")
+    # what the four drives share, whatever the motor: once for all of them (`shares`)
+    pre = {what: shares(need, what, grip) for what in ("rms", "peak_window")} if "rms_mean" in need else None
+
     def one(name: str, motor: Any) -> tuple[dict, pd.DataFrame]:
         c = motor.resolved(name)
         cycle = ramp if ramp is not None and "segments" in ramp else None  # a duty cycle's: its segments'
         straight = None if cycle is not None else ramp
-        res = screen_one(need, motor, armature=armature, accel=accel, duty=duty, ramp=straight)
+        res = screen_one(need, motor, armature=armature, accel=accel, duty=duty, ramp=straight, pre=pre)
         if span not in (None, "mission") and f"{span}_{GROUPS[group][0]}_drive_peak_lp" in df:  # one segment: its
             res["voltage"] = _segment_voltage(df, group, span, c) > c["V"]  # voltage as the mission's segments read it
             res["fits"] = ~res[list(REASONS)].any(axis=1)
@@ -327,7 +342,8 @@ def screen(
 
     # the motors in threads: numpy lets go of the GIL in its array loops, which are most of a motor's screen
     # (100,000 rows, 10 motors: 1.3 s in one thread on 2 cores)
-    with ThreadPoolExecutor(max(1, min(len(catalogue), os.cpu_count() or 1))) as pool:
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    with ThreadPoolExecutor(max(1, min(len(catalogue), cores))) as pool:  # the cores this process may use
         done = list(pool.map(one, catalogue, catalogue.values()))
     rows = [row for row, _ in done]
     failing = {name: bad for name, (_, bad) in zip(catalogue, done, strict=True)} if detail else {}
