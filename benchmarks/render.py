@@ -366,6 +366,41 @@ def _sizing(kind: str) -> Callable[..., str]:
     return figure
 
 
+def _against(n_new: int, kinds: tuple[str, ...] = ("warm",)) -> Callable[..., str]:
+    """benchmarks/sizing.py sessions of two codes on one machine: the first `n_new` files the new code's, the rest
+    the code before's, alternated; each code's walls over its `kinds` runs, and the ratio of their medians."""
+
+    def figure(*ds: dict) -> str:
+        def walls(group: tuple[dict, ...]) -> list[float]:
+            return [r["wall_s"] for d in group for r in d["runs"] if r["kind"] in kinds]
+
+        new, old = walls(ds[:n_new]), walls(ds[n_new:])
+        ratio = statistics.median(new) / statistics.median(old)
+        screen = [r["phases_s"]["screen"] for d in ds[:n_new] for r in d["runs"] if r["kind"] in kinds]
+
+        def spread(v: list[float]) -> str:
+            if len(v) == 1:
+                return f"{v[0]:.1f} s, 1 run"
+            return f"median {statistics.median(v):.1f} s, {min(v):.1f}-{max(v):.1f} s over {len(v)} runs"
+
+        return (
+            f"**{ratio:.2f}x** the code before ({spread(new)}, against {spread(old)}); its screen "
+            f"{min(screen):.1f}-{max(screen):.1f} s"
+        )
+
+    return figure
+
+
+def _screen_ratios(d: dict) -> str:
+    """benchmarks/screen_ratios.py: the screen of every (motor, ratio) against the pairings' alone, one run."""
+    med, runs = d["median_s"], d["times_s"]["every (motor, ratio)"]
+    return (
+        f"**{med['every (motor, ratio)']:.2f} s** median ({min(runs):.2f}-{max(runs):.2f} s, {len(runs)} runs) for "
+        f"{d['pairs']['every (motor, ratio)']} pairs of {d['motors']} motors, {d['ratio_of_medians']:.1f}x the "
+        f"{d['pairs']['paired entries only']} pairings' screen in the same run ({med['paired entries only']:.2f} s)"
+    )
+
+
 ROWS = [
     Row(
         "The warp engine (MuJoCo Warp 4.0 as its physics: slip tyre, drive, statistics) against MuJoCo Warp alone "
@@ -485,6 +520,58 @@ ROWS = [
         _sizing("first"),
         "one fresh H100 host, 16 cores",
         "`python benchmarks/sizing.py seed --n 1000000 --backend warp --warm 0`",
+    ),
+    Row(
+        "Issue 61's size command (the screen of every (motor, ratio) of the catalogue, 186 pairs, each motor's window, "
+        "the requirement sheet, the ratio figures) against the code before it (162e31c, nine pairings): the robot's "
+        "400-condition session on MuJoCo C, first and warm runs, alternated (issue 61: at most 1.5x)",
+        [
+            "cpu-2core-sizing-robot-400-issue61-1.json",
+            "cpu-2core-sizing-robot-400-issue61-2.json",
+            "cpu-2core-sizing-robot-400-before-issue61-1.json",
+            "cpu-2core-sizing-robot-400-before-issue61-2.json",
+        ],
+        _against(2, ("first", "warm")),
+        "this project's 2-core machine, quiet (load 1.5-1.8)",
+        "`python benchmarks/sizing.py robot --n 400 --backend mujoco --warm 1`, in each code's checkout",
+    ),  # fmt: skip
+    Row(
+        "The same pair on two cores of the H100 hosts below (taskset), at ef64e84 and d4576c1 (before the sharing was "
+        "read once and the threads followed the cores: 16 threads on the 2)",
+        [
+            "h100-host-2cores-sizing-robot-400-issue61-a.json",
+            "h100-host-2cores-sizing-robot-400-issue61-b.json",
+            "h100-host-2cores-sizing-robot-400-before-issue61-a.json",
+            "h100-host-2cores-sizing-robot-400-before-issue61-b.json",
+        ],
+        _against(2, ("first", "warm")),
+        "two cores of two H100 hosts",
+        "`taskset -c 0,1 python benchmarks/sizing.py robot --n 400 --backend mujoco --warm 1`",
+    ),  # fmt: skip
+    Row(
+        "Issue 61's screen at 100,000 conditions, as the size command runs it (every pair's counts, the windows, "
+        "each motor's chosen ratio in detail; the ramp's verdict by its threshold, the sharing read once)",
+        ["cpu-2core-screen-ratios-100000.json"],
+        _screen_ratios,
+        "this project's 2-core machine",
+        "`python benchmarks/screen_ratios.py OUT/servo --spec SPEC --n 100000` (the robot's 400-condition servo sweep, "
+        "friction swept, tiled)",
+    ),
+    Row(
+        "The robot's 100,000-condition session (as above), issue 61's code at d4576c1 (the ramp's verdict by its "
+        "threshold, before the sharing was read once) against 162e31c on one warm host: the screen of 186 pairs is "
+        "still the difference",
+        ["h100-sizing-robot-100000-issue61-b.json", "h100-sizing-robot-100000-before-issue61-b.json"],
+        _against(1),
+        "one H100 host, 16 cores",
+        "`python benchmarks/sizing.py robot --n 100000 --backend warp --warm 1`, in each code's checkout",
+    ),
+    Row(
+        "The same at ef64e84 (the ramp still stepped for every pair and variant)",
+        ["h100-sizing-robot-100000-issue61-a.json", "h100-sizing-robot-100000-before-issue61-a.json"],
+        _against(1),
+        "one H100 host of an earlier lease, 16 cores",
+        "`python benchmarks/sizing.py robot --n 100000 --backend warp --warm 1`, in each code's checkout",
     ),
     Row(
         "The robot's session with two runs in the loop (from ambient, then from the hot start), and MJX imported by "
