@@ -106,4 +106,6 @@ def test_a_size_session_killed_in_its_loop_and_run_again_ends_with_the_uninterru
         pd.read_parquet(killed / "verdicts.parquet"), pd.read_parquet(full / "verdicts.parquet"), check_exact=True
     )
     for folder in {str(Path(k).parent) for k in expected}:  # each sweep's rows, bit for bit
-        pd.testing.assert_frame_equal(batchveh.load(killed / folder), batchveh.load(full / folder), check_exact=True)
+        pd.testing.assert_frame_equal(
+            batchveh.load(killed / folder), batchveh.load(full / folder), check_exact=True, obj=folder
+        )
