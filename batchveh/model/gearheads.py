@@ -16,7 +16,7 @@ motors:
     ...
 ```
 
-Each motor that names a series gets one catalogue entry per ratio it allows (`expand`): the motor's datasheet
+Each motor that names a series gets one catalogue entry per ratio it allows (`combination`): the motor's datasheet
 values with that ratio's reduction, efficiency and ratings, named `<motor>_<series>-i<label>`. An entry already
 in the catalogue under that name (a pairing written out by hand) stays as written. A series' values are at the
 gearhead's output (torques, N m) or its input (speed, rad/s; inertia, kg m^2), as the catalogue's rules say.
@@ -31,19 +31,15 @@ from typing import Any
 
 from batchveh.config import ConfigError, did_you_mean
 
-# a ratio's keys: (DCMotor's field it sets or None, whether it is a number)
-RATIO_KEYS = {
-    "ratio": ("gear_ratio", True),
-    "efficiency": ("gear_efficiency", True),
-    "max_continuous_torque": ("gear_max_continuous_torque", True),
-    "max_intermittent_torque": ("gear_max_intermittent_torque", True),
-    "max_input_speed": ("gear_max_input_speed", True),
-    "inertia_at_input": (None, True),
-    "stages": (None, True),
-    "mass": (None, True),
-    "label": (None, False),
-    "product_number": (None, False),
+# a gearhead's keys that set a DCMotor field, in a pairing's `gearhead:` block and in a series' ratio alike
+GEAR_FIELDS = {
+    "ratio": "gear_ratio",
+    "efficiency": "gear_efficiency",
+    "max_continuous_torque": "gear_max_continuous_torque",
+    "max_intermittent_torque": "gear_max_intermittent_torque",
+    "max_input_speed": "gear_max_input_speed",
 }
+RATIO_KEYS = (*GEAR_FIELDS, "inertia_at_input", "stages", "mass", "label", "product_number")  # a ratio's keys
 SERIES_KEYS = {"name", "ratios", "vendor", "product", "source", "source_detail", "confidence", *RATIO_KEYS} - {
     "ratio",
     "label",
@@ -178,14 +174,7 @@ def combination(motor: Any, s: GearheadSeries, r: GearRatio) -> Any:
     """The DCMotor `motor` on ratio `r` of series `s`: its gearhead fields replaced by the ratio's (a rating the
     series does not print is None: not checked), named `<motor>_<series>-i<label>`."""
     label = r.label.split(":")[0]
+    gear = {field: getattr(r, key) for key, field in GEAR_FIELDS.items()}
     return dataclasses.replace(
-        motor,
-        name=f"{motor.motor_name}_{s.name}-i{label}",
-        motor=motor.motor_name,
-        series=s.name,
-        gear_ratio=r.ratio,
-        gear_efficiency=r.efficiency,
-        gear_max_continuous_torque=r.max_continuous_torque,
-        gear_max_intermittent_torque=r.max_intermittent_torque,
-        gear_max_input_speed=r.max_input_speed,
+        motor, name=f"{motor.motor_name}_{s.name}-i{label}", motor=motor.motor_name, series=s.name, **gear
     )

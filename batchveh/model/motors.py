@@ -217,7 +217,7 @@ def load_catalogue(path: str | Path) -> dict[str, DCMotor]:
     DCMotor's fields, the gearhead nested under `gearhead:` with `ratio`, `efficiency` and its ratings): a dict
     {name: DCMotor}, in the file's order, then every (motor, ratio) its `series:` allow (model/gearheads.py), in
     the series' order. A bad entry is one ConfigError line naming the file, entry and key."""
-    from batchveh.model.gearheads import allowed, combination, load_series, number
+    from batchveh.model.gearheads import GEAR_FIELDS, allowed, combination, load_series, number
 
     data = load_yaml(path)
     series = load_series(data.get("gearhead_series"), str(path))
@@ -230,13 +230,7 @@ def load_catalogue(path: str | Path) -> dict[str, DCMotor]:
             raise ConfigError(f"{where}: {raw!r} is not a mapping; allowed: a motor's datasheet values")
         entry: dict[str, Any] = {k: v for k, v in raw.items() if k in known}
         gear = raw.get("gearhead") or {}
-        for key, to in (
-            ("ratio", "gear_ratio"),
-            ("efficiency", "gear_efficiency"),
-            ("max_continuous_torque", "gear_max_continuous_torque"),
-            ("max_intermittent_torque", "gear_max_intermittent_torque"),
-            ("max_input_speed", "gear_max_input_speed"),
-        ):
+        for key, to in GEAR_FIELDS.items():
             if gear.get(key) is not None:
                 entry[to] = number(gear[key], f"{where}: gearhead: {key}")
         if "name" not in entry:

@@ -90,20 +90,18 @@ def at_wheel(
     duty: float,
     share: float,
     params: list[str],
-    counted: np.ndarray | None = None,
 ) -> dict[str, dict[str, Any]]:
     """The sheet at the wheel (the hinge): {figure: {value, unit, row, variant}} (the module's list)."""
     v = per_variant(df, group, span, duty)
     out = {}
     for key in v.columns:
-        value, row = nearest_rank(v[key].to_numpy(), share, counted)
+        value, row = nearest_rank(v[key].to_numpy(), share)
         out[key] = _figure(value, row, df, params, UNITS[key])
     top = out["top_speed"]["value"]
     if not (np.isfinite(top) and top > 0):  # no speed asked of the motor (a straight line's steering): no speed rows
         out = {k: f for k, f in out.items() if k in ("rms_torque", "peak_torque", "accel_peak_torque")}
     if group == "drive" and np.isfinite(top) and top > 0:
         near = v["top_speed"].to_numpy() >= (1 - NEAR_TOP) * top
-        near &= np.ones(len(v), bool) if counted is None else np.asarray(counted, bool)
         value, row = nearest_rank(v["peak_torque"].to_numpy(), share, near)
         out["torque_at_top_speed"] = _figure(value, row, df, params, UNITS["torque_at_top_speed"])
     order = list(UNITS)
@@ -127,11 +125,10 @@ def sheet(
     share: float,
     params: list[str],
     motor: Any = None,
-    counted: np.ndarray | None = None,
 ) -> dict[str, Any]:
     """A group's requirement sheet: at the wheel, and at the shaft of `motor` (a catalogue DCMotor: its ratio
     and efficiency; None: the wheel's only)."""
-    wheel = at_wheel(df, group, span, duty, share, params, counted)
+    wheel = at_wheel(df, group, span, duty, share, params)
     out: dict[str, Any] = {"share": share, "duty": duty, "span": span or "window", "at_wheel": wheel}
     if motor is not None:
         out["at_shaft"] = {

@@ -73,15 +73,21 @@ def choose_ratio(ratios: np.ndarray, covered: np.ndarray, coverage: np.ndarray, 
     return int(order[0])
 
 
+def _limit_at(rows: pd.DataFrame, i: int, first: tuple[str, ...], then: tuple[str, ...]) -> str:
+    """The limit that fails row `i` (the commonest of `first`, else of `then`); '' past either end."""
+    return (limit_of(rows.iloc[i], first) or limit_of(rows.iloc[i], then)) if 0 <= i < len(rows) else ""
+
+
 def one_window(rows: pd.DataFrame, share: float) -> dict[str, Any]:
     """A motor's window from its screen rows (one per ratio, ascending): low and high ratio, the limits closing
     each end, the ratio to buy and its coverage, and whether the window has gaps (a ratio inside it short)."""
     rows = rows.sort_values("gear_ratio", kind="stable").reset_index(drop=True)
     ratios, coverage = rows["gear_ratio"].to_numpy(float), rows["coverage"].to_numpy(float)
     covered = coverage >= share
-    last = np.flatnonzero(covered)[-1] if covered.any() else len(rows) - 1
-    open_high = last == len(rows) - 1 or not limit_of(rows.iloc[last + 1], (*ABOVE, *BELOW))
-    pick = choose_ratio(ratios, covered, coverage, open_high)
+    inside = np.flatnonzero(covered)
+    first, last = (inside[0], inside[-1]) if len(inside) else (0, len(rows) - 1)
+    above = _limit_at(rows, last + 1, ABOVE, BELOW)  # '': the series ends the window (or there is none)
+    pick = choose_ratio(ratios, covered, coverage, open_high=not above)
     out: dict[str, Any] = {
         "motor_name": rows["motor_name"].iloc[0],
         "shaft_continuous_torque": float(rows["shaft_continuous_torque"].iloc[0]),
@@ -91,7 +97,7 @@ def one_window(rows: pd.DataFrame, share: float) -> dict[str, Any]:
         "chosen": rows["motor"].iloc[pick],
         "chosen_ratio": float(ratios[pick]),
         "chosen_coverage": float(coverage[pick]),
-        "covers": bool(covered.any()),
+        "covers": bool(len(inside)),
         "window_low": np.nan,
         "window_high": np.nan,
         "closed_below": "",
@@ -99,19 +105,13 @@ def one_window(rows: pd.DataFrame, share: float) -> dict[str, Any]:
         "gaps": 0,
         "binding": "",
     }
-    if covered.any():
-        first, last = np.flatnonzero(covered)[[0, -1]]
+    if len(inside):
         out["window_low"], out["window_high"] = float(ratios[first]), float(ratios[last])
         out["gaps"] = int((~covered[first : last + 1]).sum())
-        out["closed_below"] = (
-            limit_of(rows.iloc[first - 1], BELOW) or limit_of(rows.iloc[first - 1], ABOVE) if first > 0 else ""
-        ) or "the series' lowest ratio"
-        out["closed_above"] = (
-            limit_of(rows.iloc[last + 1], ABOVE) or limit_of(rows.iloc[last + 1], BELOW) if last < len(rows) - 1 else ""
-        ) or "the series' highest ratio"
+        out["closed_below"] = _limit_at(rows, first - 1, BELOW, ABOVE) or "the series' lowest ratio"
+        out["closed_above"] = above or "the series' highest ratio"
     else:  # what binds at the ratio that comes nearest
-        row = rows.iloc[pick]
-        out["binding"] = limit_of(row, (*BELOW, *ABOVE))
+        out["binding"] = limit_of(rows.iloc[pick], (*BELOW, *ABOVE))
     return out
 
 
@@ -151,8 +151,8 @@ def best_of(wins: pd.DataFrame) -> str | None:
 
 
 def window_text(row: Any) -> str:
-    """A motor's window in words: 'i36-i50 (closed below by continuous current, above by voltage line)', or
-    'none: best 86.0% at i28, continuous current binds'."""
+    """A motor's window in words: '36:1 to 50:1 (below: continuous current; above: voltage line)', or
+    'none: best 86.0% at 28:1, where the continuous current binds'."""
     if row["covers"]:
         gaps = f", {int(row['gaps'])} ratio{'s' * (row['gaps'] > 1)} inside short" if row["gaps"] else ""
         below = LIMIT_TEXT.get(row["closed_below"], row["closed_below"])
