@@ -105,6 +105,8 @@ def test_the_sheet_is_the_nearest_rank_quantile_and_names_its_variant():
     shaft = requirements.at_shaft(sheet, 20.0, 0.8)
     assert shaft["rms_torque"]["value"] == pytest.approx(0.5 * 99.0 / 16.0)
     assert shaft["top_speed"]["value"] == pytest.approx(100.0)
+    # 101 values 1..101: 0.99 x 101 = 99.99, so the nearest rank is the 100th smallest (100), not the 99th
+    assert requirements.nearest_rank(np.arange(1.0, 102.0)[::-1], 0.99) == (100.0, 1)
 
 
 def _motor(**extra):
