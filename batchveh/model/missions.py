@@ -64,6 +64,7 @@ from batchveh.model.scenarios import (
     law_time,
     pivot_targets,
     register,
+    steered,
 )
 
 SEGMENT_KINDS = ("accelerate", "cruise", "climb", "turn", "stop", "steer")
@@ -354,13 +355,13 @@ def _targets(seg: Segment, p: Mapping[str, Any], alpha_prev):
     if seg.kind == "stop":
         return jnp.zeros(4), alpha_prev
     if seg.kind == "steer":
-        return jnp.zeros(4), jnp.deg2rad(own("steer_deg")) * jnp.array(STEER_IN_PLACE)
+        return jnp.zeros(4), jnp.deg2rad(own("steer_deg")) * jnp.array(STEER_IN_PLACE) * steered(p)
     if seg.geometry == "ackermann":
         return ackermann_targets(p, 1.0 / own("turn_radius"), own("speed_kmh"))
     if seg.geometry == "pivot":
         return pivot_targets(p, own("yaw_rate_dps"))
     if seg.geometry == "crab":
-        return jnp.full(4, 1.0) * rim, jnp.deg2rad(own("steer_deg")) * jnp.ones(4)
+        return jnp.full(4, 1.0) * rim, jnp.deg2rad(own("steer_deg")) * steered(p)
     return jnp.full(4, 1.0) * rim, jnp.zeros(4)
 
 
@@ -483,7 +484,23 @@ def complete_mission(fields: dict[str, Any], where: str) -> dict[str, Any]:
     return fields if "total_time" in fields else {**fields, "total_time": mission_duration(fields, where)}
 
 
+def mission_motions(sc: Scenario) -> list[tuple[str, str]]:
+    """Each segment's motion (scenarios.check_layout): a steer in place, a turn's geometry, else a straight line."""
+    return [
+        (f".segments[{k}] ({seg.kind}{': ' + seg.turn if seg.kind == 'turn' else ''})",
+         "steer" if seg.kind == "steer" else (seg.turn if seg.kind == "turn" else "straight"))
+        for k, seg in enumerate(mission_of(sc).segments)
+    ]  # fmt: skip
+
+
 register(
     "mission",
-    Kind(mission_controls, {}, check=check_mission, complete=complete_mission, reads=("segments", "torque_threshold")),
+    Kind(
+        mission_controls,
+        {},
+        check=check_mission,
+        complete=complete_mission,
+        reads=("segments", "torque_threshold"),
+        motions=mission_motions,
+    ),
 )

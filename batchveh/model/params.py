@@ -27,7 +27,7 @@ from typing import Any, Literal
 from batchveh.model import course
 from batchveh.model.motors import SWEEPABLE
 from batchveh.model.scenarios import Scenario, numeric_fields
-from batchveh.model.vehicle import Vehicle, numeric_paths, replace_path
+from batchveh.model.vehicle import LAYOUT_KEY, LAYOUTS, Vehicle, numeric_paths, replace_path
 
 Acts = Literal["static", "model", "structure", "control"]
 
@@ -107,9 +107,12 @@ def base_params(vehicle: Vehicle, scenario: Scenario) -> dict[str, float]:
         for part in path.split("."):
             obj = getattr(obj, part)
         out[path] = float(obj)
+    out[LAYOUT_KEY] = float(LAYOUTS.index(vehicle.steering.layout))  # the controls' layout (scenarios.steered)
     if vehicle.motors.model == "dcmotor":  # each dcmotor parameter's own value (NaN: the sheet gives none)
         names = vehicle.motors.catalogue_names()
-        for group, motor in zip(GROUPS, vehicle.motors.dcmotors(), strict=True):
+        for group, motor in zip(GROUPS, vehicle.motors.dcmotors(steer=bool(vehicle.motors.steer)), strict=True):
+            if not getattr(vehicle.motors, group):  # no steering motor (a skid layout)
+                continue
             out[f"motors.{group}"] = float(names.index(getattr(vehicle.motors, group)))
             for key in SWEEPABLE:
                 value = getattr(motor, key)

@@ -32,7 +32,7 @@ import numpy as np
 
 from batchveh.config import ConfigError, did_you_mean, field, from_mapping, load_yaml
 from batchveh.model import course, laws
-from batchveh.model.vehicle import CORNER_SIGNS, CORNERS, MOTORS, hinge_xy
+from batchveh.model.vehicle import CORNER_SIGNS, CORNERS, LAYOUT_KEY, LAYOUTS, MOTORS, STEERED, hinge_xy
 
 GRAVITY_PRESETS = {"earth": 9.81, "moon": 1.62, "mars": 3.71}
 _SX = np.array([CORNER_SIGNS[c][0] for c in CORNERS], float)
@@ -154,6 +154,30 @@ def _drive(sc: Scenario, target, p, t):
     return law(t, 0.0 * target, target, p["ramp_time"])
 
 
+_STEERED = np.array([STEERED[name] for name in LAYOUTS], float)  # (layouts, 4): 1 where the hub steers
+_SKID = LAYOUTS.index("skid")
+
+
+def steered(p):
+    """(4,) 1.0 where the hub steers in the vehicle's layout (`steering.layout`, carried as LAYOUT_KEY), else 0:
+    every steering target is multiplied by it, so a fixed hub's angle, rate and axis roll are 0."""
+    code = jnp.asarray(p.get(LAYOUT_KEY, 0.0))
+    return jnp.asarray(_STEERED)[jnp.round(code).astype(int)]
+
+
+def _skid(p):
+    """True where the vehicle is skid-steered (a traced scalar)."""
+    return jnp.round(jnp.asarray(p.get(LAYOUT_KEY, 0.0))) == _SKID
+
+
+def skid_speeds(p, speed_ms, yaw_rate):
+    """Wheel speeds (4,) rad/s of a skid-steered vehicle whose centre moves at `speed_ms` (m/s, along its x) and
+    yaws at `yaw_rate` (rad/s, >0 counter-clockwise): each wheel rolls at the chassis' velocity along x at its
+    centre, speed - yaw_rate y (y = +-wheel.y_cg, half the track). Its sideways velocity, yaw_rate x, slides: the
+    turning resistance (docs/physics.md, "Layouts")."""
+    return (speed_ms - yaw_rate * _SY * p["wheel.y_cg"]) / p["wheel.radius"]
+
+
 def _axes(p):
     """(4,) x and y of the steering axes in m: (+-steering.axis_x, +-steering.axis_y), the chassis corners where
     those are 0 (vehicle.hinge_xy)."""
@@ -193,7 +217,7 @@ def steer_in_place(sc, p, t):
     so each rim lags its path and the wheels slide (scrub) for most of the ramp;
     `steer_in_place_rolling` is the consistent form.
     """
-    target = jnp.deg2rad(p["steer_deg"]) * jnp.array([-1.0, 1.0, 1.0, -1.0])
+    target = jnp.deg2rad(p["steer_deg"]) * jnp.array([-1.0, 1.0, 1.0, -1.0]) * steered(p)
     alpha = laws.ramp(t, 0.0 * target, target, p["ramp_time"])
     roll = axis_roll(p, target / jnp.maximum(p["ramp_time"], 1e-12))
     return _drive(sc, roll, p, t), alpha
@@ -212,7 +236,7 @@ def steer_in_place_rolling(sc, p, t):
     `steer_in_place` is the seed's form: there the drive speeds ramp up from 0, so each rim lags
     its path and the wheels slide. `drive_law` does not apply here.
     """
-    target = jnp.deg2rad(p["steer_deg"]) * jnp.array([-1.0, 1.0, 1.0, -1.0])
+    target = jnp.deg2rad(p["steer_deg"]) * jnp.array([-1.0, 1.0, 1.0, -1.0]) * steered(p)
     duration = jnp.maximum(p["ramp_time"], 1e-12)
     alpha = laws.ramp(t, 0.0 * target, target, p["ramp_time"])
     roll = axis_roll(p, target / duration)
@@ -222,16 +246,21 @@ def steer_in_place_rolling(sc, p, t):
 
 def crab(sc, p, t):
     """All four wheels steer to steer_deg, then drive at the target speed: the body translates sideways."""
-    alpha = laws.ramp(t, 0.0, jnp.deg2rad(p["steer_deg"]), p["ramp_time"]) * jnp.ones(4)
+    alpha = laws.ramp(t, 0.0, jnp.deg2rad(p["steer_deg"]), p["ramp_time"]) * steered(p)
     w = laws.ramp(t, 0.0, _omega(p), p["ramp_time"], delay=p["ramp_time"])
     return jnp.ones(4) * w, alpha
 
 
 def pivot_targets(p, yaw_rate_dps):
     """(wheel speeds (4,) rad/s, steering angles (4,) rad) of a turn on the spot at yaw_rate_dps
-    (deg/s, >0 counter-clockwise) about the chassis centre: each wheel rolls tangent to its circle."""
+    (deg/s, >0 counter-clockwise) about the chassis centre: each wheel rolls tangent to its circle. Skid-steered:
+    the hubs stay straight, the left wheels roll back and the right ones forward at the yaw rate times half the
+    track (`skid_speeds`)."""
     ax, ay = _axes(p)
-    return _rolling_about(p, ax, ay, jnp.deg2rad(yaw_rate_dps))
+    rate = jnp.deg2rad(yaw_rate_dps)
+    omega, alpha = _rolling_about(p, ax, ay, rate)
+    skid = _skid(p)
+    return jnp.where(skid, skid_speeds(p, 0.0, rate), omega), jnp.where(skid, 0.0, alpha)
 
 
 def pivot(sc, p, t):
@@ -246,12 +275,22 @@ def ackermann_targets(p, curvature, speed_kmh):
     """(wheel speeds (4,) rad/s, steering angles (4,) rad) of a turn about a centre on the rear
     wheels' axle line, (-wheel.x_cg, 1 / curvature) (curvature in 1/m, >0 left; 0 drives straight),
     the chassis centre at speed_kmh: the rear wheels steer 0, each wheel rolls at its own distance
-    from the centre. Lengths are scaled by the curvature, so a straight line is the same formula."""
+    from the centre. Lengths are scaled by the curvature, so a straight line is the same formula.
+
+    Front-steered: the rear hubs are fixed straight, each rear wheel rolling at the chassis' velocity at its
+    centre (on the axle line, so it does not slide). Skid-steered: no hub steers; the centre moves at speed_kmh and
+    the chassis yaws at v kappa (`skid_speeds`), the centre of the turn abreast of the chassis centre."""
     ax, ay = _axes(p)
     xc = -p["wheel.x_cg"]
     # the chassis centre turns at yaw rate v kappa / hypot(xc kappa, 1), at v
     rate = speed_kmh / 3.6 / jnp.hypot(xc * curvature, 1.0)
-    return _rolling_about(p, (ax - xc) * curvature, ay * curvature - 1.0, rate, scale=curvature)
+    omega, alpha = _rolling_about(p, (ax - xc) * curvature, ay * curvature - 1.0, rate, scale=curvature)
+    mask = steered(p)
+    # a fixed rear hub (front layout): the rear axle point moves at v / hypot(xc kappa, 1) = rate, yaw rate kappa
+    fixed = skid_speeds(p, rate, rate * curvature)
+    skid = skid_speeds(p, speed_kmh / 3.6, speed_kmh / 3.6 * curvature)
+    omega = jnp.where(_skid(p), skid, jnp.where(mask > 0, omega, fixed))
+    return omega, alpha * mask
 
 
 def ackermann_rolling(p, curvature, speed_kmh, alpha, alpha_rate):
@@ -265,7 +304,9 @@ def ackermann_rolling(p, curvature, speed_kmh, alpha, alpha_rate):
         yaw = (v_r sin a - alpha_rate dx) / (W_y sin a + (W_x - xc) cos a),
     the mean of the two front wheels' taken. Each wheel then rolls at the chassis' velocity at its centre
     along its heading (its own sweep along the heading, axis_roll, is added by the caller). With
-    alpha_rate 0 this is ackermann_targets' speeds; with no trail (dx 0) the yaw is the steady one."""
+    alpha_rate 0 this is ackermann_targets' speeds; with no trail (dx 0) the yaw is the steady one. A fixed hub
+    (alpha 0 there) rolls at the chassis' velocity along x at its centre; a skid-steered vehicle's wheels at
+    `skid_speeds` of the instant."""
     ax, ay = _axes(p)
     xc = -p["wheel.x_cg"]
     dx, dy = _wheel_from_axis(p)
@@ -275,7 +316,8 @@ def ackermann_rolling(p, curvature, speed_kmh, alpha, alpha_rate):
     yaw = (v_r * s - alpha_rate * dx) / (wy * s + (wx - xc) * c)
     front = _SX > 0
     yaw = jnp.sum(jnp.where(front, yaw, 0.0), axis=-1, keepdims=True) / front.sum()
-    return ((v_r - yaw * wy) * c + yaw * (wx - xc) * s) / p["wheel.radius"]
+    omega = ((v_r - yaw * wy) * c + yaw * (wx - xc) * s) / p["wheel.radius"]
+    return jnp.where(_skid(p), skid_speeds(p, speed_kmh / 3.6, speed_kmh / 3.6 * curvature), omega)
 
 
 def _rolling_about(p, ux, uy, rate, scale=1.0):
@@ -332,6 +374,14 @@ def custom_laws(sc: Scenario, where: str = "scenario") -> tuple[laws.Law, ...]:
     return tuple(out)
 
 
+def _custom_motions(sc: Scenario) -> list[tuple[str, str]]:
+    """A custom scenario's motions: a steer of each hub its laws name (`steer` names all four)."""
+    keys = set(sc.laws or {})
+    hubs = CORNERS if "steer" in keys else [c for c in CORNERS if f"steer_{c}" in keys]
+    return [("", "straight")] + [(f".laws.steer_{c}" if c in [k[6:] for k in keys] else ".laws.steer", f"steer_{c}")
+                                 for c in hubs]  # fmt: skip
+
+
 def _check_custom(sc: Scenario, where: str) -> None:
     """The custom kind's check: its laws parse (`custom_laws`)."""
     custom_laws(sc, where)
@@ -341,7 +391,7 @@ def custom(sc, p, t):
     """Eight motion laws from YAML: drive speeds in rad/s, steering angles in deg."""
     ls = custom_laws(sc)
     vals = [law(t) for law in ls]
-    return jnp.stack(vals[:4]), jnp.stack(vals[4:])
+    return jnp.stack(vals[:4]), jnp.stack(vals[4:]) * steered(p)
 
 
 def manual(sc, p, t):
@@ -360,19 +410,56 @@ class Kind(NamedTuple):
     check: Callable[[Scenario, str], None] | None = None
     complete: Callable[[dict[str, Any], str], dict[str, Any]] | None = None
     reads: tuple[str, ...] = ()
+    # the motions it asks of the vehicle (MOTIONS' names), or f(sc) -> [(where, motion), ...]: `check_layout`
+    # refuses those a layout cannot do
+    motions: tuple[str, ...] | Callable[[Scenario], list[tuple[str, str]]] = ("straight",)
 
 
 SCENARIOS: dict[str, Kind] = {
     "manual": Kind(manual, {}),
     "straight_line": Kind(straight_line, {}),
-    "steer_in_place": Kind(steer_in_place, {"total_time": 3.0, "drive_law": "ramp"}),  # the seed's laws
+    "steer_in_place": Kind(steer_in_place, {"total_time": 3.0, "drive_law": "ramp"}, motions=("steer",)),  # seed's
     "towing": Kind(towing, {"towing": (False, False, True, True)}),
-    "ackermann": Kind(ackermann, {"total_time": 8.0}),
-    "crab": Kind(crab, {"total_time": 8.0, "steer_deg": 30.0}),
-    "pivot": Kind(pivot, {"total_time": 8.0, "ramp_time": 2.0}),
-    "steer_in_place_rolling": Kind(steer_in_place_rolling, {"total_time": 3.0}),
-    "custom": Kind(custom, {}, check=_check_custom),
+    "ackermann": Kind(ackermann, {"total_time": 8.0}, motions=("ackermann",)),
+    "crab": Kind(crab, {"total_time": 8.0, "steer_deg": 30.0}, motions=("crab",)),
+    "pivot": Kind(pivot, {"total_time": 8.0, "ramp_time": 2.0}, motions=("pivot",)),
+    "steer_in_place_rolling": Kind(steer_in_place_rolling, {"total_time": 3.0}, motions=("steer",)),
+    "custom": Kind(custom, {}, check=_check_custom, motions=_custom_motions),
 }  # batchveh.model.missions registers "mission" (`register`); batchveh's __init__ imports it
+
+
+# what each layout can do (Kind.motions): a fixed hub cannot steer, so a skid-steered vehicle turns by its wheel
+# speeds only (ackermann: a turn of a radius; pivot: on the spot), and a front-steered one steers its front hubs
+ALLOWED = {
+    "four_wheel": None,  # everything
+    "skid": ("straight", "ackermann", "pivot"),
+    "front": ("straight", "ackermann", "steer", "steer_lf", "steer_rf"),
+}
+MOTION_NAMES = {"steer": "a steer in place", "crab": "a crab (all four wheels steered alike)",
+                "pivot": "a pivot (a turn on the spot about the centre)",
+                **{f"steer_{c}": f"a steer of hub {c}" for c in CORNERS}}  # fmt: skip
+WHY = {
+    "skid": "its hubs are fixed: it turns by its left and right wheel speeds",
+    "front": "its rear hubs are fixed: it steers its front wheels only",
+}
+
+
+def check_layout(layout: str, sc: Scenario, where: str = "scenario") -> None:
+    """Raise one ConfigError line where scenario `sc` asks a motion the vehicle's `steering.layout` cannot do
+    (a crab or a steer in place on a skid-steered vehicle, a pivot on a front-steered one), before any work."""
+    allowed = ALLOWED[layout]
+    if allowed is None:
+        return
+    motions = SCENARIOS[sc.kind].motions
+    pairs = motions(sc) if callable(motions) else [("", m) for m in motions]
+    for at, motion in pairs:
+        if motion not in allowed:
+            kinds = [k for k, kind in SCENARIOS.items() if not callable(kind.motions) and set(kind.motions) <= set(allowed)]
+            raise ConfigError(
+                f"{where}{at}: kind {sc.kind!r} asks {MOTION_NAMES.get(motion, motion)} of a vehicle with steering.layout "
+                f"{layout!r}, and {WHY[layout]}; allowed on {layout}: {', '.join(kinds)}, custom and mission with "
+                f"{', '.join(a for a in allowed if '_' not in a)} only"
+            )
 
 
 def register(name: str, kind: Kind) -> None:

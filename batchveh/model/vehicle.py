@@ -41,6 +41,13 @@ CORNER_SIGNS = {"lf": (1, 1), "rf": (1, -1), "lr": (-1, 1), "rr": (-1, -1)}
 MOTORS = tuple(f"drive_{c}" for c in CORNERS) + tuple(f"steer_{c}" for c in CORNERS)
 CHANNELS = (*MOTORS, "drive_sum")  # the torques the statistics reduce: 8 motors and the four-wheel drive sum
 GROUND = "ground"
+# the steering layouts (`steering.layout`): which hubs steer. A hub that does not steer is fixed: its hinge stays
+# in the model, held at 0 by its steering slot (the servo's PD, or HUB_LOCK with model dcmotor), and that slot's
+# torque is the moment the hub's mounting carries, not a motor's (sizing judges no steering there)
+LAYOUTS = ("four_wheel", "skid", "front")
+STEERED = {"four_wheel": (True, True, True, True), "skid": (False, False, False, False),
+           "front": (True, True, False, False)}  # fmt: skip
+LAYOUT_KEY = "steering.layout"  # the flat parameter carrying LAYOUTS.index(layout) to the controls (base_params)
 PAYLOAD_RADIUS = 0.02  # m, the payload's sphere (its inertia is 2/5 m r^2 about its centre)
 
 
@@ -99,6 +106,15 @@ class Steering:
     axis_y: float = field(
         0.0, unit="m", ge=0, doc="each steering hinge's distance left / right of the centre (0: chassis.width / 2)"
     )
+    # which wheels steer (LAYOUTS): 'four_wheel', the seed's (four steered hubs); 'skid' (hubs fixed: turns by the
+    # left and right wheel speeds, the wheels sliding sideways); 'front' (the front hubs steer at Ackermann angles,
+    # the rear hubs fixed). Structure: one layout a sweep (docs/physics.md, "Layouts")
+    layout: Literal["four_wheel", "skid", "front"] = "four_wheel"
+
+    @property
+    def steered(self) -> tuple[bool, ...]:
+        """Whether each hub steers, CORNERS order."""
+        return STEERED[self.layout]
 
 
 @dataclass(frozen=True)
@@ -166,16 +182,21 @@ class Motors:
     steer_set: tuple[tuple[str, float], ...] = ()
 
     def validate(self, where: str = "motors") -> None:
-        """With model dcmotor: the catalogue loads and names both motors (one ConfigError line)."""
+        """With model dcmotor: the catalogue loads and names the drive motor, and the steering motor where one is
+        named (the vehicle asks for it where a hub steers: `Vehicle.validate`); one ConfigError line."""
         if self.model == "dcmotor":
-            self.dcmotors(where)
+            self.dcmotors(where, steer=bool(self.steer))
 
-    def dcmotors(self, where: str = "motors") -> tuple[DCMotor, DCMotor]:
-        """The (drive, steer) catalogue motors of model dcmotor."""
+    def dcmotors(self, where: str = "motors", steer: bool = True) -> tuple[DCMotor, DCMotor]:
+        """The (drive, steer) catalogue motors of model dcmotor; with `steer` False (no hub steers: a skid
+        layout) HUB_LOCK stands for the steering motor."""
         if not self.catalogue:
             raise ConfigError(f"{where}.catalogue: missing; allowed: the path of a motor catalogue (model: dcmotor)")
         catalogue = _catalogue(self.catalogue, where)
         drive = with_fields(pick(catalogue, self.drive, f"{where}.drive"), self.drive_set)
+        if not steer:
+            drive.resolved(f"{where}.drive")
+            return drive, HUB_LOCK
         steer = with_fields(pick(catalogue, self.steer, f"{where}.steer"), self.steer_set)
         drive.resolved(f"{where}.drive"), steer.resolved(f"{where}.steer")
         return drive, steer
@@ -195,6 +216,13 @@ def _catalogue(path: str, where: str) -> dict[str, DCMotor]:
         return _catalogue_at(path, Path(path).stat().st_mtime)
     except FileNotFoundError:
         raise ConfigError(f"{where}.catalogue: {path}: file not found; allowed: a motor catalogue's path") from None
+
+
+# a fixed hub's steering slot with model dcmotor: a stiff direct drive (1 N m/A, 0.01 Ohm, 10 kA at 1 kV: 10 kN m)
+# that holds the hub at 0 through the drive's angle loop, as the servo's PD does; no winding heats. Not a motor of
+# the catalogue: its torque is the moment the hub's mounting carries
+HUB_LOCK = DCMotor(name="hub_lock", torque_constant=1.0, terminal_resistance=0.01, bus_voltage=1000.0,
+                   max_continuous_current=1.0e4, rotor_inertia=1e-4)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -279,6 +307,28 @@ class Vehicle:
         """Raise ConfigError where the parts do not fit together."""
         if self.wheel.radius <= self.hub.radius:
             raise ConfigError(f"{where}: wheel.radius {self.wheel.radius!r} must exceed hub.radius {self.hub.radius!r}")
+        if self.steering.layout == "skid":
+            for key in ("axis_x", "axis_y"):
+                value = getattr(self.steering, key)
+                if value:
+                    raise ConfigError(
+                        f"{where}: steering.{key}: {value!r} places a steering hinge, and steering.layout 'skid' has "
+                        "none (its hubs are fixed); allowed: no steering.axis_x / axis_y with layout skid, or layout "
+                        "four_wheel or front"
+                    )
+            if self.motors.steer:
+                raise ConfigError(
+                    f"{where}: motors.steer: {self.motors.steer!r} is a steering motor, and steering.layout 'skid' "
+                    "has none; allowed: no motors.steer with layout skid"
+                )
+        if self.motors.model == "dcmotor":
+            self.dc_motors(f"{where}: motors")
+
+    def dc_motors(self, where: str = "motors") -> tuple[DCMotor, ...]:
+        """The 8 dcmotors of model dcmotor, MOTORS order: the drive motor at each wheel, the steering motor at each
+        steered hub and HUB_LOCK at each fixed one (`steering.layout`)."""
+        drive, steer = self.motors.dcmotors(where, steer=any(self.steering.steered))
+        return (drive,) * 4 + tuple(steer if s else HUB_LOCK for s in self.steering.steered)
 
 
 def hinge_xy(p: Any, xp: Any = np) -> tuple[Any, Any]:
@@ -316,8 +366,11 @@ def geometry_line(vehicle: Vehicle) -> str:
     geo = vehicle.steering_geometry()
     trail = ", ".join(f"{c} {g['trail']:+.3f}" for c, g in geo.items())
     scrub = ", ".join(f"{c} {g['scrub_radius']:+.3f}" for c, g in geo.items())
+    if s.layout == "skid":
+        return "layout skid: every hub fixed (no steering motor); turns by the left and right wheel speeds"
+    lead = "layout front: the front hubs steer, the rear hubs are fixed; " if s.layout == "front" else ""
     return (
-        f"steering hinges at x +-{hx:.3f}, y +-{hy:.3f} m ({where}); trail (contact behind the hinge) {trail} m; "
+        f"{lead}steering hinges at x +-{hx:.3f}, y +-{hy:.3f} m ({where}); trail (contact behind the hinge) {trail} m; "
         f"scrub radius (contact outboard) {scrub} m"
     )
 
@@ -437,23 +490,24 @@ def mjcf(
         )
 
     # the rotor's inertia reflected at each joint: the servo's `armature`, or each dcmotor's J N^2
-    steer_armature = drive_armature = mo.armature
+    steer_armature = drive_armature = (mo.armature,) * 4
     if mo.model == "dcmotor":
-        drive_armature, steer_armature = (reflected_inertia(x) for x in mo.dcmotors())
+        inertia = [reflected_inertia(x) for x in v.dc_motors()]
+        drive_armature, steer_armature = inertia[:4], inertia[4:]
     bodies = []
-    for name in CORNERS:
+    for i, name in enumerate(CORNERS):
         sx, sy = CORNER_SIGNS[name]
         axis = np.array([sx * hinge_x, sy * hinge_y])  # steering axis, world x, y
         hub_local = np.array([sx * w.x_cg, sy * h.y_cg]) - axis
         wheel_local = np.array([sx * w.x_cg, sy * w.y_cg]) - axis
         bodies.append(f"""
       <body name="hub_{name}" pos="{_fmt(axis[0] - c.x_cg, axis[1] - c.y_cg, w.radius - c.z_cg)}">
-        <joint name="steer_{name}" type="hinge" axis="0 0 1" armature="{_fmt(steer_armature)}"/>
+        <joint name="steer_{name}" type="hinge" axis="0 0 1" armature="{_fmt(steer_armature[i])}"/>
         <geom name="hub_{name}" type="cylinder" size="{_fmt(h.radius, h.length / 2)}"
               pos="{_fmt(hub_local[0], hub_local[1], 0)}" zaxis="0 1 0" mass="{_fmt(h.mass)}"
               contype="{hub_type}" conaffinity="{hub_aff}" rgba=".55 .55 .6 1"/>
         <body name="wheel_{name}" pos="{_fmt(wheel_local[0], wheel_local[1], 0)}">
-          <joint name="drive_{name}" type="hinge" axis="0 1 0" armature="{_fmt(drive_armature)}"
+          <joint name="drive_{name}" type="hinge" axis="0 1 0" armature="{_fmt(drive_armature[i])}"
                  frictionloss="{_fmt(rolling)}"/>
           {wheel_geoms(name)}
         </body>
@@ -521,9 +575,7 @@ def mjcf(
 def _dcmotors(v: Vehicle) -> list[str]:
     """MJCF of the 8 motors as dcmotors, in MOTORS order, each with its terminal voltage as ctrl (the drive's,
     batchveh/model/drive.py)."""
-    drive, steer = v.motors.dcmotors()
-    return [dcmotor_xml(f"{kind}_{c}", f"{kind}_{c}", m, rotor=False)
-            for kind, m in (("drive", drive), ("steer", steer)) for c in CORNERS]  # fmt: skip
+    return [dcmotor_xml(name, name, m, rotor=False) for name, m in zip(MOTORS, v.dc_motors(), strict=True)]
 
 
 def build_model(v: Vehicle, **kw: Any) -> mujoco.MjModel:

@@ -44,7 +44,7 @@ from batchveh.model.params import (
     structural,
     variant_setup,
 )
-from batchveh.model.scenarios import Scenario, gravity_vector
+from batchveh.model.scenarios import Scenario, check_layout, gravity_vector
 from batchveh.model.soil import check_ground
 from batchveh.model.tyres import DRIVE_ARMATURE, STEER_MASS
 from batchveh.model.vehicle import Vehicle, build_model, hinge_xy, layout, rolling_resistance_torque
@@ -191,6 +191,7 @@ def make_batch(
     for k, v in table.items():
         params[k] = np.broadcast_to(np.asarray(v, float), (n,)).copy()
     check_ground(vehicle.tyre.model, scenario.obstacle, "scenario")
+    check_layout(vehicle.steering.layout, scenario, "scenario")
     course.check(params, scenario.obstacle, "scenario")  # every variant, swept or not (a single run too)
     model = model_for(vehicle, scenario)
     fields: dict[str, np.ndarray] = {}

@@ -140,8 +140,7 @@ class MotorStatsConfig:
         servo): drives then steering."""
         if vehicle.motors.model != "dcmotor":
             return None
-        drive, steer = (x.resolved() for x in vehicle.motors.dcmotors())
-        each = [drive] * 4 + [steer] * 4
+        each = [x.resolved() for x in vehicle.dc_motors()]  # a fixed hub's slot: vehicle.HUB_LOCK
         return MotorStatsConfig(
             K=tuple(c["K"] for c in each),
             R=tuple(c["R"] / c["eta"] for c in each),

@@ -41,7 +41,7 @@ import pandas as pd
 from batchveh.config import ConfigError, check_number, did_you_mean, field, from_mapping, load_yaml
 from batchveh.model import course, missions
 from batchveh.model.params import base_params, parameter_specs, variant_setup
-from batchveh.model.scenarios import Scenario, load_scenario, scenario_from_mapping
+from batchveh.model.scenarios import Scenario, check_layout, load_scenario, scenario_from_mapping
 from batchveh.model.soil import check_ground
 from batchveh.model.vehicle import Vehicle, load_vehicle, vehicle_from_mapping
 from batchveh.stepping.motor_stats import MotorStatsConfig
@@ -396,6 +396,7 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
     vehicle, scenario = variant_setup(vehicle, scenario, fixed)
     vehicle.validate(f"{where}: vehicle")
     check_ground(vehicle.tyre.model, scenario.obstacle, f"{where}: scenario")
+    check_layout(vehicle.steering.layout, scenario, f"{where}: scenario")
     course.check_sweep(base_params(vehicle, scenario), params, scenario.obstacle, sw.method in SAMPLED, where)
     if scenario.kind == "mission":
         missions.check_sweep(given, params, fixed, where)
