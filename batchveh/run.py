@@ -24,7 +24,7 @@ from batchveh.cli import run_main
 from batchveh.config import ConfigError, OneLineParser
 from batchveh.model import course
 from batchveh.model.params import base_params
-from batchveh.model.scenarios import SCENARIOS, Scenario, load_scenario
+from batchveh.model.scenarios import SCENARIOS, Scenario, check_layout, load_scenario
 from batchveh.model.vehicle import CORNERS, MOTORS, Vehicle, geometry_line, load_vehicle
 from batchveh.stepping import stats
 from batchveh.stepping.batch import make_batch
@@ -193,6 +193,8 @@ def _run(args: argparse.Namespace) -> int:
     if (out / "series.parquet").exists() and not args.overwrite:
         raise FileExistsError(f"{out / 'series.parquet'} exists; give --overwrite to replace it")
     course.check(base_params(vehicle, scenario), scenario.obstacle, str(args.scenario))  # names the file
+    where = f"{args.scenario} on {args.vehicle or 'the seed vehicle'} (steering.layout {vehicle.steering.layout})"
+    check_layout(vehicle.steering.layout, scenario, where)  # names both files
     t0 = time.perf_counter()
     result = simulate(vehicle, scenario, backend=args.backend, precision=args.precision)
     paths = write(result, out, overwrite=args.overwrite)
