@@ -20,6 +20,10 @@ Three phases, one progress bar:
    its own criteria (STEER_REASONS: lost its angle, at its current limit or voltage line for more than 5% of the
    run, RMS, heat, gearhead), the next larger steering motor runs with the same drive. A steering miss is never
    counted against a drive.
+The steering group is the vehicle's `steering.layout`'s (`batchveh.analysis.demand.groups`): four_wheel, the four
+hubs' motors; front, the two front hubs' (steer_lf, steer_rf); skid, none: no steering screen, window, choice,
+confirmation or sheet, the loop runs the drives alone (vehicle.HUB_LOCK holds every hub) and --steer is refused.
+A fixed hub's `steer_<corner>` columns are the moment its mounting carries: no steering figure reads them.
 It ends with one line: the chosen motor and gearhead, its coverage, and where the report is (OUT/report.html,
 report.md, figures/, verdicts.parquet: batchveh/sizing/report.py).
 
@@ -170,10 +174,11 @@ def sweep_runner(folder: Path, catalogue: str, backend: str | None, executor: An
     return run
 
 
-def trace(spec: Any, catalogue: str, drive: str, steer: str, values: dict[str, float], rise: float) -> Any:
-    """One variant's time series on MuJoCo C with `drive` and `steer` as DC motors, its drive windings started
-    `rise` above ambient: each drive's winding temperature, the bus power (W, the 8 motors) and energy (Wh), and
-    each drive's torque at the wheel and its wheel's speed."""
+def trace(spec: Any, catalogue: str, drive: str, steer: str | None, values: dict[str, float], rise: float) -> Any:
+    """One variant's time series on MuJoCo C with `drive` and `steer` as DC motors (`steer` None: a skid layout,
+    none), its drive windings started `rise` above ambient: each drive's winding temperature, the bus power (W,
+    the motors: the four drives and the steered hubs' motors, a fixed hub's HUB_LOCK no motor) and energy (Wh),
+    and each drive's torque at the wheel and its wheel's speed."""
     import numpy as np
     import pandas as pd
 
@@ -183,22 +188,28 @@ def trace(spec: Any, catalogue: str, drive: str, steer: str, values: dict[str, f
     from batchveh.stepping.rollout import mujoco_steps
 
     motors = dataclasses.replace(
-        spec.vehicle.motors, model="dcmotor", catalogue=str(catalogue), drive=drive, steer=steer, drive_start_rise=rise
-    )
+        spec.vehicle.motors, model="dcmotor", catalogue=str(catalogue), drive=drive, steer=steer or "",
+        drive_start_rise=rise,
+    )  # fmt: skip
     vehicle, scenario = variant_setup(dataclasses.replace(spec.vehicle, motors=motors), spec.scenario, values)
     b = make_batch(vehicle, scenario, {})
     m, lay = b.model, layout(b.model)
     p = {k: float(v[0]) if np.ndim(v) == 1 else np.asarray(v[0]) for k, v in b.params.items()}
     k_eta = p["_dc.K"] * p["_dc.eta"]
+    steered = spec.vehicle.steering.steered
+    # the bus: the drives and the steered hubs' motors (a fixed hub's slot, HUB_LOCK, is its mounting, no motor)
+    motor = None if all(steered) else np.array([True] * 4 + list(steered))
     rec: dict[str, Any] = {}
     rows = []
     for i, (d, ctrl) in enumerate(mujoco_steps(m, p, scenario=scenario, n_steps=scenario.n_steps, record=rec)):
         if ctrl is None:
             continue
         current = d.actuator_force[lay.motor_act] / k_eta
+        power = rec["v"] * current
         torque = d.actuator_force[lay.motor_act[:4]] * p["_dc.N"][:4]  # at the wheel
         speed = d.qvel[lay.motor_dof[:4]]
-        rows.append([i * m.opt.timestep, *rec["T"][:4], float(np.sum(rec["v"] * current)), *torque, *speed])
+        bus = float(np.sum(power if motor is None else power[motor]))
+        rows.append([i * m.opt.timestep, *rec["T"][:4], bus, *torque, *speed])
     wheels = ("lf", "rf", "lr", "rr")
     t = pd.DataFrame(
         rows,
@@ -240,12 +251,20 @@ class Session:
     steer_ratios: Any = None
     steer_wins: Any = None
     steer_table: Any = None
-    steer: str = ""
+    steer: str | None = ""  # None: no steering motor (a skid layout)
     runs: list[str] = dataclasses.field(default_factory=list)  # the drives the loop may run, smallest first
     rows: list[Any] = dataclasses.field(default_factory=list)
     steer_rows: list[Any] = dataclasses.field(default_factory=list)
     detail: dict[str, Any] = dataclasses.field(default_factory=dict)
     chosen: str | None = None
+
+
+def steering_group(spec: Any) -> tuple[str, ...]:
+    """The spec's steering motors (`analysis.demand.groups` of its steering.layout): four, the front two, or none
+    (skid)."""
+    from batchveh.analysis.demand import groups
+
+    return groups(spec.vehicle.steering.layout)["steer"]
 
 
 def start(args: Any, executor: Any) -> Session:
@@ -259,6 +278,11 @@ def start(args: Any, executor: Any) -> Session:
     # the battery's energy and power are checked in the loop, apart (its limits are not a motor's); a bad
     # `battery:` section is one line here, before any simulation
     battery = battery_of(args.catalogue)
+    if args.steer is not None and not steering_group(spec):
+        raise ConfigError(
+            f"--steer: {args.steer!r} names a steering motor, and {args.spec} is skid-steered (steering.layout skid: "
+            "every hub fixed, no steering motor); allowed: no --steer with steering.layout skid"
+        )
     if args.steer is not None:
         pick(cat, args.steer, "--steer")
     if not 0 < args.share <= 1:
@@ -318,7 +342,8 @@ def screen_phase(ses: Session) -> None:
         allowed = ", ".join(["mission", *mission_segments(df)]) if "mission_drive_lf_rms" in df else "none"
         raise ConfigError(f"--span: {span!r} is not a span of {args.spec}'s results; allowed: {allowed}")
     ses.span = span
-    ses.common = {"share": args.share, "params": list(spec.params), "duty": spec.duty, "span": span}
+    layout = spec.vehicle.steering.layout  # the steering group: its steered hubs' motors (analysis.demand.groups)
+    ses.common = {"share": args.share, "params": list(spec.params), "duty": spec.duty, "span": span, "layout": layout}
     ses.drive_kw = {"armature": spec.vehicle.motors.armature, "accel": wheel_accel(spec, df), "ramp": ramp_of(spec, df)}
     # every (motor, ratio) of the catalogue (counts only), then each motor's window; the loop walks one ratio a
     # motor, those rows screened again in detail (the commonest first miss)
@@ -326,6 +351,11 @@ def screen_phase(ses: Session) -> None:
     ses.wins = windows(ses.ratios, cat, args.share)
     ses.best = best_of(ses.wins)
     ses.table = loop_table(detailed(df, cat, ses.wins, ses.drive_kw, ses.common), ses.wins)
+    ses.runs = candidates(ses.table, ses.best, args.share)
+    if not steering_group(spec):  # skid: no steering motor to screen, window or choose (HUB_LOCK holds the hubs)
+        ses.steer = None
+        ses.walls["screen"] = time.perf_counter() - t0
+        return
     _, ses.steer_ratios, _ = screen(df, cat, group="steer", detail=False, **ses.common)
     ses.steer_wins = windows(ses.steer_ratios, cat, args.share)
     given = [args.steer] if args.steer is not None else []
@@ -334,7 +364,6 @@ def screen_phase(ses: Session) -> None:
     if args.steer is not None:  # the (motor, ratio) given stands for its motor
         ses.steer_table = with_entry(ses.steer_table, steer_rows, args.steer, cat)
     ses.steer = args.steer or steering(ses.steer_table, args.share)
-    ses.runs = candidates(ses.table, ses.best, args.share)
     ses.walls["screen"] = time.perf_counter() - t0
 
 
@@ -358,7 +387,10 @@ def loop_phase(ses: Session) -> None:
     from batchveh.sizing.screening import screen
 
     args, spec, n, per, bar = ses.args, ses.spec, ses.n, ses.per, ses.bar
-    ranked_steer = list(ses.steer_table["motor"]) if args.steer is None else [ses.steer]
+    if ses.steer is None:  # skid: no steering motor to walk up
+        ranked_steer = []
+    else:
+        ranked_steer = list(ses.steer_table["motor"]) if args.steer is None else [ses.steer]
     looped = resolve_backend(args.backend or spec.backend)
     looped = "mujoco" if looped == "mjx" else looped  # MJX's JAX implementation has no dcmotor: MuJoCo C runs it
     runner = sweep_runner(ses.out / "loop", ses.catalogue, looped, ses.executor)
@@ -367,7 +399,8 @@ def loop_phase(ses: Session) -> None:
     while pending and ses.chosen is None:  # the drives smallest first, a batch at a time (`batch_of`)
         batch = batch_of(pending, ses.best)
         bar.total = bar.n + n * per * len(batch)
-        bar.set_description(f"{spec.name}: in the loop, {', '.join(batch)}, steering {ses.steer}")
+        steering = "skid steering" if ses.steer is None else f"steering {ses.steer}"
+        bar.set_description(f"{spec.name}: in the loop, {', '.join(batch)}, {steering}")
         bar.refresh()
         _, t, d = in_loop(
             spec, ses.df, ses.catalogue, batch, steer=ses.steer, share=args.share, duty=spec.duty,
@@ -451,7 +484,7 @@ def record(ses: Session) -> Any:
         steer=ses.steer,
         share=args.share,
         steer_screen=ses.steer_table,
-        steer_loop=pd.concat(ses.steer_rows, ignore_index=True),
+        steer_loop=pd.concat(ses.steer_rows, ignore_index=True) if ses.steer is not None else None,
         not_run=not_run(ses.table, ses.runs, list(loop["motor"]), ses.chosen, ses.best),
         duty=spec.duty,
         span=ses.span,
@@ -462,6 +495,7 @@ def record(ses: Session) -> Any:
         steer_windows=ses.steer_wins,
         requirements=needs,
         geometry=geometry_of(spec),
+        layout=spec.vehicle.steering.layout,
         catalogue=ses.cat,
         battery=ses.battery,
         trace=series,
@@ -505,11 +539,15 @@ def size(args: Any, executor: Any = None) -> tuple[Any, dict[str, Path]]:
 
 def verdict_line(s: Any, paths: dict[str, Path]) -> str:
     """The command's last line: the choice, its coverage, the report."""
-    from batchveh.sizing.report import battery_over, steering_lost
+    from batchveh.sizing.report import battery_over, steering_lost, steering_words
 
     if s.chosen is None:
         none_judged = "judged" in s.loop and len(s.loop) > 0 and not (s.loop["judged"] > 0).any()
+        unsimulated = none_judged and (s.loop["not_simulated"] == len(s.servo)).all()
         why = f"; no drive could be judged: the steering ({s.steer}) lost every run" if none_judged else ""
+        if unsimulated:  # not the steering's, nor the motor's: every run in the loop diverged or failed its checks
+            lost = s.loop["not_simulated_why"].iloc[-1]
+            why = f"; no drive could be judged: no run in the loop could be simulated ({lost})"
         near = s.requirements["nearest"] if s.requirements else None
         would = (
             f"; nearest: {near['motor']} ({near['coverage']:.1%} on the screen, {near['binding']} binds); a motor "
@@ -527,7 +565,7 @@ def verdict_line(s: Any, paths: dict[str, Path]) -> str:
     lost += f", {over} past the battery's energy or power (the battery's, not counted)" if over else ""
     return (
         f"chosen: {s.chosen} (gearhead {c['N']:g}:1), covers {row['coverage']:.1%} in the loop "
-        f"(screen {float(s.screen.set_index('motor').loc[s.chosen, 'coverage']):.1%}){lost}; steering {s.steer}; "
+        f"(screen {float(s.screen.set_index('motor').loc[s.chosen, 'coverage']):.1%}){lost}; {steering_words(s)}; "
         f"report: {paths['html']}"
     )
 

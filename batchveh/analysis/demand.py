@@ -1,26 +1,56 @@
 """From a servo sweep's rows to what a motor must deliver: each variant's demand at the wheel on the worst of a
-group's four motors (`demand`), and the groups' motor names (WHEELS, GROUPS; GROUP_RISES: the parameter of each
-group's start rise). Below sizing (`batchveh.sizing`): `analysis.plot` reads the demand too."""
+group's motors (`demand`), and the groups' motor names (WHEELS, GROUPS; GROUP_RISES: the parameter of each
+group's start rise; `groups` and `group_rises`: the same on a steering layout, whose fixed hubs are no motor).
+Below sizing (`batchveh.sizing`): `analysis.plot` reads the demand too."""
 
 from __future__ import annotations
 
 import pandas as pd
 
 from batchveh.config import ConfigError
+from batchveh.model.vehicle import CORNERS, LAYOUTS, STEERED
 
 WHEELS = ("drive_lf", "drive_rf", "drive_lr", "drive_rr")
-GROUPS = {"drive": WHEELS, "steer": ("steer_lf", "steer_rf", "steer_lr", "steer_rr")}
+GROUPS = {"drive": WHEELS, "steer": ("steer_lf", "steer_rf", "steer_lr", "steer_rr")}  # the four-wheel layout's
 GROUP_RISES = {"motors.drive_start_rise": WHEELS, "motors.steer_start_rise": GROUPS["steer"]}  # each group's start
+RISE_GROUP = {"motors.drive_start_rise": "drive", "motors.steer_start_rise": "steer"}  # each start rise's group
+LAYOUT_TEXT = {  # the steering group of each layout, in words (the sizing's report and its sizing.json)
+    "four_wheel": "four-wheel steering: four steering motors (every hub steers)",
+    "skid": "skid steering: no steering motors (every hub fixed)",
+    "front": "front steering: two steering motors (front hubs); rear hubs fixed",
+}
 
 
-def demand(df: pd.DataFrame, group: str = "drive", span: str | None = None) -> pd.DataFrame:
-    """Each variant's demand on the worst of the group's four motors, at the wheel: RMS and peak torque
+def groups(layout: str = "four_wheel") -> dict[str, tuple[str, ...]]:
+    """Each group's motors on a steering layout (`steering.layout`, vehicle.STEERED): the four drives on every
+    layout; the steering motor of each hub that steers (four_wheel: the four, GROUPS; front: steer_lf, steer_rf;
+    skid: none). A fixed hub's `steer_<corner>` columns are the moment its mounting carries, never a motor's: no
+    steering demand, statistic or verdict reads them."""
+    if layout not in LAYOUTS:
+        raise ConfigError(f"steering.layout: {layout!r} is not allowed; allowed: {', '.join(LAYOUTS)}")
+    steer = tuple(f"steer_{c}" for c, s in zip(CORNERS, STEERED[layout], strict=True) if s)
+    return {"drive": WHEELS, "steer": steer}
+
+
+def group_rises(layout: str = "four_wheel") -> dict[str, tuple[str, ...]]:
+    """GROUP_RISES on a layout: each start rise's motors (`groups`), the steering's only where a hub steers."""
+    names = groups(layout)
+    return {key: names[group] for key, group in RISE_GROUP.items() if names[group]}
+
+
+def demand(df: pd.DataFrame, group: str = "drive", span: str | None = None, layout: str = "four_wheel") -> pd.DataFrame:
+    """Each variant's demand on the worst of the group's motors on the steering `layout` (`groups`: the four
+    drives; the steering motors of the hubs that steer), at the wheel: RMS and peak torque
     (N m), and speed (rad/s): the steady window's RMS, the whole run's low-pass peak and the mean
-    wheel speed; or a mission span's RMS, peak and peak speed. A group or span with no such columns is one
-    ConfigError line."""
+    wheel speed; or a mission span's RMS, peak and peak speed. A group or span with no such columns, or the
+    steering of a layout with no steering motor (skid), is one ConfigError line."""
     if group not in GROUPS:
         raise ConfigError(f"group: {group!r} is not allowed; allowed: {', '.join(GROUPS)}")
-    names = GROUPS[group]
+    names = groups(layout)[group]
+    if not names:
+        raise ConfigError(
+            f"group: {group!r} has no motor on steering.layout {layout!r} ({LAYOUT_TEXT[layout]}); allowed: drive"
+        )
     need = [f"{m}_rms" for m in names] if span is None else [f"{span}_{m}_rms" for m in names]
     if need[0] not in df:
         spans = sorted({c.removesuffix("_drive_lf_rms") for c in df.columns if c.endswith("_drive_lf_rms")})

@@ -13,7 +13,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from batchveh.analysis.demand import GROUP_RISES, GROUPS, WHEELS
+from batchveh.analysis.demand import GROUPS, WHEELS, group_rises
+from batchveh.analysis.demand import groups as layout_groups
 from batchveh.config import ConfigError
 from batchveh.model.battery import Battery
 from batchveh.sizing.screening import REASONS, _limiting, _where, bound_at_wheel, mission_segments
@@ -64,6 +65,13 @@ STEER_TEXT = {
     "gear_torque": "steering torque above the gearhead's continuous (RMS) or intermittent (peak) rating",
     "lost": "a steering angle more than 5 deg off the imposed one",
 }
+
+
+def _steering(cat: dict[str, Any], steer: str | None) -> Any:
+    """The steering motor `steer` of the catalogue, or vehicle.HUB_LOCK where there is none (a skid layout)."""
+    from batchveh.model.vehicle import HUB_LOCK
+
+    return HUB_LOCK if steer is None else cat[steer]
 
 
 def best_in_loop(table: pd.DataFrame) -> str | None:
@@ -127,7 +135,7 @@ def _hot_runs(spec, df, catalogue, cat, batch, steer, runs, duty, run, battery=N
     n, k = len(df), len(batch)
     closed = closed and runs == 2 and closed_form(spec)
     motors = dataclasses.replace(
-        spec.vehicle.motors, model="dcmotor", catalogue=str(catalogue), drive=batch[0], steer=steer,
+        spec.vehicle.motors, model="dcmotor", catalogue=str(catalogue), drive=batch[0], steer=steer or "",
         hot_columns=closed,
     )  # fmt: skip
     run_spec = dataclasses.replace(spec, vehicle=dataclasses.replace(spec.vehicle, motors=motors))
@@ -138,14 +146,16 @@ def _hot_runs(spec, df, catalogue, cat, batch, steer, runs, duty, run, battery=N
     duration = run_spec.stats_config().n_steps * float(spec.scenario.time_step)
     rest = duration * (1.0 / duty - 1.0)
     heated = duration - float(spec.scenario.time_step)  # winding_temp_end holds every step's heat but the last
-    keys = tuple(GROUP_RISES)
-    consts = [dict(zip(keys, (cat[b].resolved(b), cat[steer].resolved(steer)), strict=True)) for b in batch]
+    rises_of = group_rises(spec.vehicle.steering.layout)  # each group's windings: a fixed hub's slot is none
+    keys = tuple(rises_of)
+    steer_c = _steering(cat, steer).resolved(steer or "steer")
+    consts = [dict(zip(keys, (cat[b].resolved(b), steer_c), strict=False)) for b in batch]
     start = [{key: np.zeros(n) for key in keys} for _ in batch]
     ran, parts = [-1] * k, []
     for r in range(runs):
         rises = {key: np.concatenate([s[key] for s in start]) for key in keys}
         if closed and r == 1:  # the hot run from the cold one, run only where the closed form cannot say
-            hot = [hot_columns(res, s, c, battery) for res, s, c in zip(parts, start, consts, strict=True)]
+            hot = [hot_columns(res, s, c, battery, rises_of) for res, s, c in zip(parts, start, consts, strict=True)]
             whole = pd.concat([h[0] for h in hot], ignore_index=True)
             redo = np.concatenate([h[1] for h in hot])
             ran = [int(h[1].sum()) for h in hot]
@@ -161,14 +171,14 @@ def _hot_runs(spec, df, catalogue, cat, batch, steer, runs, duty, run, battery=N
         for res, s, c in zip(parts, start, consts, strict=True):
             # the next run starts from this one's end, cooled over the rest between runs
             end = {
-                key: (res[[f"{m}_winding_temp_end" for m in GROUP_RISES[key]]].max(axis=1).to_numpy() - c[key]["T_amb"])
+                key: (res[[f"{m}_winding_temp_end" for m in rises_of[key]]].max(axis=1).to_numpy() - c[key]["T_amb"])
                 * (np.exp(-rest / c[key]["t_T"]) if c[key]["t_T"] > 0 else 0.0)
                 for key in keys
             }
             residual.append(max(float(np.max(np.abs(end[key] - s[key]))) for key in keys))
         if r < runs - 1:  # the next start: the back-to-back fixed point, in closed form from this run
             start = [
-                {key: _hot_start(res, GROUP_RISES[key], c[key], s[key], heated, rest) for key in keys}
+                {key: _hot_start(res, rises_of[key], c[key], s[key], heated, rest) for key in keys}
                 for res, s, c in zip(parts, start, consts, strict=True)
             ]
     parts = [_without_gains(res) for res in parts] if closed else parts
@@ -181,7 +191,7 @@ def in_loop(
     catalogue: str | Path,
     candidates: list[str],
     *,
-    steer: str,
+    steer: str | None,
     share: float = 0.99,
     hot: bool = True,
     iterations: int = 1,
@@ -203,7 +213,9 @@ def in_loop(
     the rows to re-run (e.g. a `screen`'s failing variants); `catalogue`: the catalogue YAML's path (the
     runs read it, as a sweep's `motors.catalogue` does; not the dict of `batchveh.load_catalogue`);
     `candidates`: catalogue names, smallest first (e.g. the `screen` table's motors with enough coverage);
-    `steer`: the catalogue name of the steering motors. A name not in the catalogue is one ConfigError line
+    `steer`: the catalogue name of the steering motors (None on a skid-steered vehicle: no hub steers, each held
+    by vehicle.HUB_LOCK; with the front layout the rear hubs are too, and only the steered hubs' motors are judged:
+    `steer_reasons`). A name not in the catalogue is one ConfigError line
     with did-you-mean. `battery`: a Battery (`batchveh.load_battery(path)`), or None for no energy check;
     `battery_apart`: its verdict (the run's bus energy or peak power above the battery's) is not counted against
     the drive but given apart, as the row's and the detail's `battery_over` (the size command's: the battery's
@@ -237,7 +249,8 @@ def in_loop(
 
         spec = load_spec(spec)
     cat = load_catalogue(catalogue)
-    pick(cat, steer, "steer")
+    if steer is not None:
+        pick(cat, steer, "steer")
     for name in candidates:
         pick(cat, name, "candidates")
     duty = float(getattr(spec, "duty", 1.0) if duty is None else duty)
@@ -247,14 +260,16 @@ def in_loop(
     runs = 1 + (iterations if hot else 0)
     servo = df.reset_index(drop=True)
     rows, detail, best = [], {}, None
-    cs = cat[steer].resolved(steer)
+    steer_names = layout_groups(spec.vehicle.steering.layout)["steer"]  # the steered hubs' motors
+    steer_motor = _steering(cat, steer)
+    cs = steer_motor.resolved(steer or "steer")
     # stop_at_first: one candidate at a time, none run past the first that covers; else as few batches as fit
     groups = [[name] for name in candidates] if stop_at_first else batches(cat, list(candidates))
     for batch in groups:
         hot = _hot_runs(spec, servo, catalogue, cat, batch, steer, runs, duty, run, battery, closed)
         for name, (res, start, residual, ran) in zip(batch, hot, strict=True):
             c = cat[name].resolved(name)
-            verdict = _judge(servo, res, cat[name], c, cat[steer], cs, battery, battery_apart, duty)
+            verdict = _judge(servo, res, cat[name], c, steer_motor, cs, battery, battery_apart, duty, steer_names)
             rows.append(_row(name, c, steer, verdict, start, residual, runs, ran))
             detail[name] = _detail(servo[list(spec.params)], res, verdict)
             if verdict.coverage() >= share and best is None:
@@ -297,6 +312,7 @@ def _judge(
     battery: Battery | None,
     battery_apart: bool,
     duty: float,
+    steer_names: tuple[str, ...] = GROUPS["steer"],
 ) -> _Verdict:
     """A candidate's verdicts on its run in the loop `res` (a row per row of the servo's run `servo`, in order):
     its drives' reasons (`_in_loop_reasons`; the battery's `energy` given apart with `battery_apart`), where each
@@ -325,7 +341,7 @@ def _judge(
     span = behind.where(behind != "", fast.where(why["speed"], ""))
     where = _where(why, span.where(span != "", "mission" if cycle[0] in servo else "window"))
     why.loc[lost, :] = False
-    steer_why = steer_reasons(res, steer_motor, cs, duty)
+    steer_why = steer_reasons(res, steer_motor, cs, duty, steer_names)
     steer_why.loc[lost, :] = False
     judged = ~lost & ~steer_why.any(axis=1).to_numpy()  # the drive is judged where simulated and its steering held
     over &= judged
@@ -485,9 +501,14 @@ def _gear_torque(res: pd.DataFrame, names: tuple[str, ...], motor: Any) -> np.nd
     return gear
 
 
-def steer_reasons(res: pd.DataFrame, motor: Any, c: dict, duty: float = 1.0) -> pd.DataFrame:
-    """Per variant of an in-the-loop result, each STEER_REASONS entry for its steering motors (True = fails)."""
-    names = GROUPS["steer"]
+def steer_reasons(
+    res: pd.DataFrame, motor: Any, c: dict, duty: float = 1.0, names: tuple[str, ...] = GROUPS["steer"]
+) -> pd.DataFrame:
+    """Per variant of an in-the-loop result, each STEER_REASONS entry for its steering motors `names` (the steered
+    hubs', `analysis.demand.groups`; a fixed hub's slot carries its mounting's moment, no motor's: never read;
+    none on a skid-steered vehicle: nothing fails) (True = fails)."""
+    if not names:
+        return pd.DataFrame(False, index=res.index, columns=list(STEER_REASONS))
     out = _rms_and_heat(res, names, c, duty)
     out["voltage"] = res[[f"{m}_at_voltage_share" for m in names]].max(axis=1).to_numpy() > STEER_LIMIT_SHARE
     out["peak"] = res[[f"{m}_at_current_share" for m in names]].max(axis=1).to_numpy() > STEER_LIMIT_SHARE

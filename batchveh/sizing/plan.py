@@ -56,18 +56,22 @@ def batch_of(pending: list[str], best: str | None) -> list[str]:
     return pending[: pending.index(best) + 1] if best in pending else pending[:BATCH]
 
 
-def read_batch(batch: list[str], table: Any, steer: str, ranked_steer: list[str], share: float) -> dict[str, Any]:
+def read_batch(
+    batch: list[str], table: Any, steer: str | None, ranked_steer: list[str], share: float
+) -> dict[str, Any]:
     """A batch's loop table (`in_loop`'s, a row per drive of `batch`, in order) read as one drive at a time would
     be: each row is the steering's run (`steer_rows`); where the steering `steer` misses more than 1 - share and
     `ranked_steer` holds a larger one, the steering walks up and the batch stops there (that drive runs again with
-    it); else the row is the drive's (`rows`, `judged`), and the first that covers `share` is `chosen`. `done`:
-    the drives of the batch read to the end (the pending list goes on after them)."""
+    it; a skid-steered vehicle has none: `steer` None, `ranked_steer` empty); else the row is the drive's (`rows`,
+    `judged`), and the first that covers `share` is `chosen`. `done`: the drives of the batch read to the end (the
+    pending list goes on after them)."""
     out: dict[str, Any] = {"steer_rows": [], "rows": [], "judged": [], "chosen": None, "steer": steer}
     out["done"] = len(batch)
     for j, name in enumerate(batch):
         row = table.iloc[[j]].reset_index(drop=True)
         out["steer_rows"].append(row.assign(drive=name))
-        larger = ranked_steer[ranked_steer.index(out["steer"]) + 1 :]
+        # no steering motor (a skid layout: `ranked_steer` empty): nothing to walk up
+        larger = ranked_steer[ranked_steer.index(out["steer"]) + 1 :] if out["steer"] in ranked_steer else []
         if row["steer_coverage"].iloc[0] < share and larger:
             out["steer"], out["done"] = larger[0], j  # the steering's own miss: the next larger, from this drive
             break

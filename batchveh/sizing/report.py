@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from batchveh.analysis.demand import GROUPS, WHEELS
+from batchveh.analysis.demand import LAYOUT_TEXT, WHEELS, groups
 from batchveh.sizing.figures import coverage_by_ratio, sheet_points
 from batchveh.sizing.loop import (
     DIFFER,
@@ -53,7 +53,7 @@ class Sizing:
     loop: pd.DataFrame  # in_loop's table, one row per candidate run in the loop
     detail: dict[str, pd.DataFrame]  # per candidate run in the loop: its variants' columns and reasons
     chosen: str | None
-    steer: str
+    steer: str | None  # the steering motor; None: a skid-steered vehicle has none
     share: float
     catalogue: dict[str, Any]  # name -> batchveh.model.motors.DCMotor
     battery: Any = None  # batchveh.model.battery.Battery or None
@@ -74,6 +74,25 @@ class Sizing:
     steer_windows: pd.DataFrame | None = None  # each steering motor's ratio window
     requirements: dict[str, Any] | None = None  # the requirement sheets (size.requirement_sheets)
     geometry: str = ""  # the steering geometry sized: each wheel's trail and scrub radius (model.vehicle.geometry_line)
+    layout: str = "four_wheel"  # the vehicle's steering.layout: which hubs' motors are the steering group
+
+
+def steering_motors(s: Sizing) -> tuple[str, ...]:
+    """The steering group's motors on the session's layout (`analysis.demand.groups`): four, the front two, none."""
+    return groups(s.layout)["steer"]
+
+
+def steering_words(s: Sizing) -> str:
+    """The steering in a few words, for the command's last line: 'steering <motor>' (four-wheel), with the front
+    hubs named (front), or that there is none (skid)."""
+    if not steering_motors(s):
+        return LAYOUT_TEXT[s.layout]
+    return f"steering {s.steer}" + (" (front hubs; rear hubs fixed)" if s.layout == "front" else "")
+
+
+def motor_count(s: Sizing) -> str:
+    """The bus's motors in words: the four drives and the steering motors ('eight', 'six', 'four')."""
+    return {8: "eight", 6: "six", 4: "four"}[4 + len(steering_motors(s))]
 
 
 def focus(s: Sizing) -> str | None:
@@ -120,14 +139,17 @@ def verdict_table(s: Sizing) -> pd.DataFrame:
             row["in the loop"] = f"{q['coverage']:.1%}"
             first = q.get("limiting") or ""
             row["loop misses"] = _counts(q, IN_LOOP_REASONS) + (f"; first: {first}" if first else "")
-            row["steering misses (not counted)"] = str(int(q.get("steer_misses", 0)))
+            if steering_motors(s):
+                row["steering misses (not counted)"] = str(int(q.get("steer_misses", 0)))
             row["not simulated"] = q["not_simulated_why"] if q["not_simulated"] else "0"
             if name == s.chosen:
                 row["verdict"] = "chosen"
             else:
                 row["verdict"] = f"fails: covers {q['coverage']:.1%} < {s.share:.0%}; {_counts(q, IN_LOOP_REASONS)}"
         else:
-            row["in the loop"], row["loop misses"], row["steering misses (not counted)"] = "not run", "", ""
+            row["in the loop"], row["loop misses"] = "not run", ""
+            if steering_motors(s):
+                row["steering misses (not counted)"] = ""
             row["not simulated"] = ""
             row["verdict"] = f"not run: {s.not_run.get(name, 'not reached')}"
         rows.append(row)
@@ -236,7 +258,8 @@ def verdicts(s: Sizing) -> pd.DataFrame:
         f["motor_check"] = d["motor_check"].to_numpy()
         f["motor_torque_ratio"] = d["motor_torque_ratio"].to_numpy(float)
         f["steer_track_err_deg"] = d["steer_track_err_deg"].to_numpy(float)
-        f["steer_at_current_share"] = d[[f"{m}_at_current_share" for m in GROUPS["steer"]]].max(axis=1).to_numpy()
+        steer = [f"{m}_at_current_share" for m in steering_motors(s)]  # the steered hubs' (none: skid, 0)
+        f["steer_at_current_share"] = d[steer].max(axis=1).to_numpy() if steer else np.zeros(len(d))
         f["battery_over"] = d["battery_over"].to_numpy(bool) if "battery_over" in d else np.zeros(len(d), bool)
         frames.append(f)
     return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
@@ -470,15 +493,37 @@ def energy_line(s: Sizing) -> str:
     if name is None or name not in s.detail or s.battery is None:
         return ""
     d = s.detail[name]
-    col = "mission_bus_energy_wh" if "mission_bus_energy_wh" in d else "bus_energy_wh"
-    e = d[col].to_numpy(float)
+    cycle = "mission_" if "mission_bus_energy_wh" in d else ""
+    e = d[f"{cycle}bus_energy_wh"].to_numpy(float)
+    fixed = fixed_hubs_wh(s, d, cycle)
+    e = e - fixed  # the motors' own: a fixed hub's slot (HUB_LOCK) is its mounting, no motor
     worst = float(np.max(e))
     cycles = s.battery.energy_wh / worst if worst > 0 else np.inf
+    apart = (
+        f"; the fixed hubs' slots, which the loop's bus counts, taken out: {np.median(fixed):.2g} Wh at the median"
+        if len(fixed_hubs(s))
+        else ""
+    )
     return (
         f"{name}: {np.median(e):.3g} Wh a cycle at the median, {worst:.3g} Wh at the worst variant (the bus, the "
-        f"eight motors, regeneration netted): {cycles:,.0f} cycles on one charge of the {s.battery.energy_wh:.0f} "
-        f"Wh battery at the worst."
+        f"{motor_count(s)} motors, regeneration netted{apart}): {cycles:,.0f} cycles on one charge of the "
+        f"{s.battery.energy_wh:.0f} Wh battery at the worst."
     )
+
+
+def fixed_hubs(s: Sizing) -> list[str]:
+    """The fixed hubs' steering slots on the session's layout (held by HUB_LOCK in the loop: no motor)."""
+    return [m for m in groups("four_wheel")["steer"] if m not in steering_motors(s)]
+
+
+def fixed_hubs_wh(s: Sizing, d: pd.DataFrame, cycle: str = "") -> np.ndarray:
+    """Per variant of a loop run `d`, the net energy (Wh) its fixed hubs' slots drew: the loop's bus
+    (motor_stats' bus_energy_wh, each motor's energy_drawn less energy_regen) sums all eight slots, a fixed hub's
+    HUB_LOCK with them; 0 on the four-wheel layout."""
+    out = np.zeros(len(d))
+    for m in fixed_hubs(s):
+        out += (d[f"{cycle}{m}_energy_drawn"] - d[f"{cycle}{m}_energy_regen"]).to_numpy(float) / 3600.0
+    return out
 
 
 def battery_line(s: Sizing) -> str:
@@ -497,7 +542,7 @@ def battery_line(s: Sizing) -> str:
     over_e = int((d["bus_energy_wh"].to_numpy(float)[judged] > b.energy_wh).sum())
     n = int(judged.sum())
     line = (
-        f"Peak bus power on {name} (the eight motors): {np.median(power):.0f} W at the median, p99 "
+        f"Peak bus power on {name} (the {motor_count(s)} motors): {np.median(power):.0f} W at the median, p99 "
         f"{np.percentile(power, 99):.0f} W, {power.max():.0f} W at the largest, over the {_variants(n)} judged. The "
         f"battery's continuous power ({b.max_power:.0f} W: {b.max_continuous_discharge_current:g} A from "
         f"{b.nominal_voltage:g} V less its {b.internal_resistance:g} Ohm) is passed in {over_p} of them, its "
@@ -525,9 +570,9 @@ def steer_segments_line(s: Sizing) -> str:
     from batchveh.sizing.screening import mission_segments
 
     segs = mission_segments(s.servo)
-    if not segs:
+    steer = steering_motors(s)  # the steered hubs' motors, never a fixed hub's mounting
+    if not segs or not steer:
         return ""
-    steer = GROUPS["steer"]
     parts = []
     frames = [("screen", s.servo)] + ([("loop", s.detail[focus(s)])] if focus(s) in s.detail else [])
     for label, df in frames:
@@ -560,6 +605,12 @@ def _headline(s: Sizing) -> str:
             return f"No motor of the catalogue covers {s.share:.0%} of the {n} variants in the loop."
         q = s.loop.set_index("motor").loc[best]
         lost = steering_lost(q, n)
+        if int(q["not_simulated"]) == n:  # nothing to judge: every run failed its physics checks or diverged
+            return (
+                f"No motor of the catalogue covers {s.share:.0%} of the {n} variants in the loop: no drive motor "
+                f"could be judged, every run of the best, {best}, could not be simulated ({q['not_simulated_why']}): "
+                "that says nothing of the motor."
+            )
         if lost and lost == n - int(q["not_simulated"]):  # no drive could be judged
             return (
                 f"No drive motor could be judged: the steering motor {q['steer']} lost every run simulated in the "
@@ -595,26 +646,30 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
     reasons = "; ".join(f"{k.replace('_', ' ')}: {apart.get(k, v)}" for k, v in IN_LOOP_TEXT.items())
     screen = "; ".join(f"{k.replace('_', ' ')}: {v}" for k, v in REASON_TEXT.items())
     by_segment = steer_segments_line(s)
+    steered = bool(steering_motors(s))
     out: list[tuple[str, str, Any]] = [
         ("", "text", headline(s)),
         (
             "",
             "text",
-            f"{len(s.servo)} variants of `{s.name}` over {', '.join(s.params)}. Steering on {s.steer}. The screen "
+            f"{len(s.servo)} variants of `{s.name}` over {', '.join(s.params)}. {_steering_text(s)} The screen "
             "checks every motor against the ideal servo's demand; the loop runs the candidates, smallest first, as "
             "DC motors driven by batchveh's drive, from the hot steady state of back-to-back runs.",
         ),
         *([("", "text", f"The vehicle sized: {s.geometry}.")] if s.geometry else []),
         *ratio_sections(s),
         ("Verdict: the drive motors", "table", verdict_table(s)),
-        ("", "text", f"Screen misses: {screen}. Loop misses: {reasons}. Not simulated: a run that diverged or failed "
-                     "its own physics checks with its steering held; it says nothing of the motor and is never "
-                     "counted against it (a run whose steering was lost first is the steering's miss). "
-                     "Steering misses: the steering motor's, never the drive's: not counted for the drive."),
-        ("Verdict: the steering motor", "table", steer_table(s)),
-        ("", "text", "The steering's criteria in the loop: " + "; ".join(
+        ("", "text", f"Screen misses: {screen}. Loop misses: {reasons}. " + (
+            "Not simulated: a run that diverged or failed its own physics checks with its steering held; it says "
+            "nothing of the motor and is never counted against it (a run whose steering was lost first is the "
+            "steering's miss). Steering misses: the steering motor's, never the drive's: not counted for the drive."
+            if steered else "Not simulated: a run that diverged or failed its own physics checks; it says nothing of "
+            "the motor and is never counted against it.")),
+        *([("Verdict: the steering motor", "table", steer_table(s)),
+           ("", "text", "The steering's criteria in the loop: " + "; ".join(
             f"{k}: {v}" for k, v in STEER_TEXT.items()) + f". It must hold on {s.share:.0%} of the variants "
-            "simulated, or the next larger steering motor runs with the same drive."),
+            "simulated, or the next larger steering motor runs with the same drive." + _steered_hubs(s))]
+          if steered else [("The steering", "text", _no_steering(s))]),
         *([("", "text", by_segment)] if by_segment else []),
         ("Screen against loop, reason by reason", "table", reason_table(s)),
         ("", "text", "The screen read " + (
@@ -623,7 +678,8 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
             "variant fails for is named)" if s.span == "mission" else f"the span {s.span}") + "."),
         ("", "text", f"Both passes use one list of criteria at the spec's duty ({s.duty:g} of the time: "
                      f"{'the run repeated back to back' if s.duty >= 1 else 'the run repeated with rests between'}"
-                     "). The loop counts a drive over the variants simulated whose steering held; the screen of a "
+                     "). The loop counts a drive over the variants simulated" + (" whose steering held" if steered
+                     else "") + "; the screen of a "
                      "motor run in the loop counts over the same variants, so the two read one set"
                      f"{_judged_share(s)}; a motor not run, over every variant."),
     ]  # fmt: skip
@@ -637,6 +693,37 @@ def sections(s: Sizing, figs: dict[str, str]) -> list[tuple[str, str, Any]]:
     meta = {**s.versions, **{f"wall {k} (s)": f"{v:.1f}" for k, v in s.wall_s.items()}}
     out.append(("", "text", "; ".join(f"{k}: {v}" for k, v in meta.items())))
     return out
+
+
+def _steering_text(s: Sizing) -> str:
+    """The steering the session sized, in a sentence: its motor (four-wheel, as before layouts), or the layout's
+    words (LAYOUT_TEXT) and what its fixed hubs' columns are."""
+    if s.layout == "four_wheel":
+        return f"Steering on {s.steer}."
+    if not steering_motors(s):
+        return f"Steering layout: {LAYOUT_TEXT[s.layout]}."
+    return f"Steering layout: {LAYOUT_TEXT[s.layout]}; steering on {s.steer}." + _steered_hubs(s)
+
+
+def _no_steering(s: Sizing) -> str:
+    """A skid-steered vehicle's steering section: there is none to size, and why."""
+    return (
+        f"{LAYOUT_TEXT[s.layout][0].upper()}{LAYOUT_TEXT[s.layout][1:]}: the vehicle turns by its left and right "
+        "wheel speeds, its wheels sliding sideways. No steering screen, window, requirement sheet or confirmation in "
+        "the loop; each hub's steer_<corner> columns are the moment its mounting carries (held straight), no "
+        "motor's."
+    )
+
+
+def _steered_hubs(s: Sizing) -> str:
+    """Where some hubs are fixed (front): which columns the steering reads, and which it never does."""
+    fixed = fixed_hubs(s)
+    if not fixed or not steering_motors(s):
+        return ""
+    return (
+        f" Every steering figure reads {', '.join(steering_motors(s))} only; {', '.join(fixed)} are the moments the "
+        "fixed hubs' mountings carry, not a motor's."
+    )
 
 
 def window_table(wins: pd.DataFrame | None) -> pd.DataFrame:
@@ -691,7 +778,7 @@ def ratio_sections(s: Sizing) -> list[tuple[str, str, Any]]:
     if s.windows is None or s.requirements is None:
         return []
     req = s.requirements
-    drive, steer = req["drive"], req["steer"]
+    drive, steer = req["drive"], req.get("steer")  # no steering sheet: a skid layout
     shaft = drive.get("at_shaft", {})
     out: list[tuple[str, str, Any]] = [
         ("Ratio windows: the drive motors", "table", window_table(s.windows)),
@@ -701,14 +788,15 @@ def ratio_sections(s: Sizing) -> list[tuple[str, str, Any]]:
                      "line, the no-load speed, the gearhead's input speed). Motors rank by their continuous torque at "
                      "the shaft, K i_max; the ratio to buy is the offered ratio nearest the window's geometric "
                      "centre (an end the series closes, not a limit, counts at 2x the other end)."),
-        ("Ratio windows: the steering motors", "table", window_table(s.steer_windows)),
+        *([("Ratio windows: the steering motors", "table", window_table(s.steer_windows))] if steer else []),
         (f"Requirement sheet: the drive ({drive['span']}, {s.share:.0%} of the variants)", "table",
          sheet_table(drive, s.params)),
         ("", "text", f"At the shaft of {shaft.get('motor', '-')} ({shaft.get('ratio', float('nan')):g}:1, efficiency "
                      f"{shaft.get('efficiency', float('nan')):g}): torque / (eta N), speed x N, power / eta. Each "
                      f"figure is the value {s.share:.0%} of the variants need at most (nearest rank), on the worst "
                      "of the four wheels, and names the variant that sets it."),
-        ("Requirement sheet: the steering (at the hinge)", "table", sheet_table(steer, s.params, "at the hinge")),
+        *([("Requirement sheet: the steering (at the hinge)", "table", sheet_table(steer, s.params, "at the hinge"))]
+          if steer else []),
     ]  # fmt: skip
     would = "; ".join(f"{m}: {line}" for m, line in req.get("would", {}).items())
     near = req.get("nearest")
@@ -780,5 +868,8 @@ def write(folder: str | Path, s: Sizing) -> dict[str, Path]:
                "steer_windows": None if s.steer_windows is None else s.steer_windows.to_dict(orient="records"),
                "worst": s.worst, "versions": s.versions, "wall_s": s.wall_s,
                "figures": figs}  # fmt: skip
+    if s.layout != "four_wheel":  # the layout and its steering in words (a four-wheel summary stays as it was)
+        summary = {"layout": s.layout, "steering": LAYOUT_TEXT[s.layout],
+                   "steering_motors": list(steering_motors(s)), **summary}  # fmt: skip
     paths["summary"].write_text(json.dumps(summary, indent=1, default=str) + "\n")
     return paths

@@ -2,9 +2,10 @@
 catalogue motor falls from it.
 
 Each figure is a nearest-rank quantile over the servo sweep's variants: the value that `share` of them need at
-most (with share 0.99 and 300 variants, the 297th smallest), taken on the worst of the group's four motors
-(`batchveh.analysis.demand.demand`), and it names the variant that sets it. At the wheel (the hinge for the
-steering):
+most (with share 0.99 and 300 variants, the 297th smallest), taken on the worst of the group's motors
+(`batchveh.analysis.demand.demand`: the four drives; the steering motors of the hubs that steer on the vehicle's
+steering layout, none on a skid-steered one, which has no steering sheet), and it names the variant that sets it.
+At the wheel (the hinge for the steering):
 
 - rms_torque: the RMS torque at the spec's duty, sqrt(duty) x the span's RMS (N m);
 - peak_torque: the low-pass peak torque the screen judges against the current's bound: a straight line's
@@ -27,7 +28,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from batchveh.analysis.demand import GROUPS, demand
+from batchveh.analysis.demand import demand, groups
 from batchveh.sizing.screening import bound_at_wheel, terminal_voltage
 
 UNITS = {
@@ -55,9 +56,12 @@ def nearest_rank(values: np.ndarray, share: float, counted: np.ndarray | None = 
     return float(values[order[k]]), int(order[k])
 
 
-def per_variant(df: pd.DataFrame, group: str, span: str | None, duty: float) -> pd.DataFrame:
-    """Each variant's figures on the worst of the group's motors, at the wheel (the module's list)."""
-    need = demand(df, group, span)
+def per_variant(
+    df: pd.DataFrame, group: str, span: str | None, duty: float, layout: str = "four_wheel"
+) -> pd.DataFrame:
+    """Each variant's figures on the worst of the group's motors on the steering `layout`, at the wheel (the
+    module's list)."""
+    need = demand(df, group, span, layout)
     out = pd.DataFrame(index=df.index)
     out["rms_torque"] = math.sqrt(duty) * need["rms"]
     out["peak_torque"] = need["peak_window"]
@@ -65,7 +69,7 @@ def per_variant(df: pd.DataFrame, group: str, span: str | None, duty: float) -> 
         out["accel_peak_torque"] = need["peak"]
     out["top_speed"] = need["speed"]
     out["continuous_power"] = out["rms_torque"] * need["speed"]
-    names = GROUPS[group]
+    names = groups(layout)[group]
     recorded = [f"{m}_power_peak" for m in names]
     if span is None and recorded[0] in df:
         out["peak_power"] = df[recorded].abs().max(axis=1)
@@ -90,9 +94,10 @@ def at_wheel(
     duty: float,
     share: float,
     params: list[str],
+    layout: str = "four_wheel",
 ) -> dict[str, dict[str, Any]]:
     """The sheet at the wheel (the hinge): {figure: {value, unit, row, variant}} (the module's list)."""
-    v = per_variant(df, group, span, duty)
+    v = per_variant(df, group, span, duty, layout)
     out = {}
     for key in v.columns:
         value, row = nearest_rank(v[key].to_numpy(), share)
@@ -125,10 +130,11 @@ def sheet(
     share: float,
     params: list[str],
     motor: Any = None,
+    layout: str = "four_wheel",
 ) -> dict[str, Any]:
-    """A group's requirement sheet: at the wheel, and at the shaft of `motor` (a catalogue DCMotor: its ratio
-    and efficiency; None: the wheel's only)."""
-    wheel = at_wheel(df, group, span, duty, share, params)
+    """A group's requirement sheet on the steering `layout`: at the wheel, and at the shaft of `motor` (a catalogue
+    DCMotor: its ratio and efficiency; None: the wheel's only)."""
+    wheel = at_wheel(df, group, span, duty, share, params, layout)
     out: dict[str, Any] = {"share": share, "duty": duty, "span": span or "window", "at_wheel": wheel}
     if motor is not None:
         out["at_shaft"] = {
@@ -189,15 +195,18 @@ def short_line(motor: Any, wheel: dict[str, dict[str, Any]]) -> str:
 
 
 def sheets(
-    df: Any, spec: Any, span: str | None, share: float, cat: dict, drive: str, steer: str, wins: Any
+    df: Any, spec: Any, span: str | None, share: float, cat: dict, drive: str, steer: str | None, wins: Any
 ) -> dict[str, Any]:
     """The session's requirement sheets: the drive's at the wheel and at the shaft of `drive`, the
-    steering's at the hinge and at the shaft of `steer`; with each motor's shortfall against the drive's sheet at
+    steering's at the hinge and at the shaft of `steer` (its steered hubs' only; None on a skid-steered vehicle,
+    which has no steering motor: `steer` None); with each motor's shortfall against the drive's sheet at
     the ratio where it comes nearest (`would`: {motor: line}) and the (motor, ratio) nearest to covering."""
     params = list(spec.params)
+    layout = spec.vehicle.steering.layout
+    steered = bool(groups(layout)["steer"])
     out = {
-        "drive": sheet(df, "drive", span, spec.duty, share, params, cat[drive]),
-        "steer": sheet(df, "steer", span, spec.duty, share, params, cat[steer]),
+        "drive": sheet(df, "drive", span, spec.duty, share, params, cat[drive], layout),
+        "steer": sheet(df, "steer", span, spec.duty, share, params, cat[steer], layout) if steered else None,
     }
     wheel = out["drive"]["at_wheel"]
     by_motor: dict[str, list] = {}

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from batchveh.analysis.demand import GROUPS, demand
+from batchveh.analysis.demand import GROUPS, demand, groups
 from batchveh.config import ConfigError
 from batchveh.stepping.motor_stats import SHORT_SHARE  # a window's mean speed this far below the imposed: short
 
@@ -268,12 +268,14 @@ def screen(
     ramp: dict[str, Any] | None = None,
     judged: Any = None,
     detail: bool = True,
+    layout: str = "four_wheel",
 ) -> tuple[str | None, pd.DataFrame, dict[str, pd.DataFrame]]:
     """The fast screen of a sweep's ideal-servo demand against DC motors with their gearheads.
 
     `df`: the rows of a servo sweep (`batchveh.load(folder)`); `catalogue`: {name: DCMotor}, as
-    `batchveh.load_catalogue(path)` returns it. Each variant's demand is `demand(df, group, span)`: on the
-    worst of the group's four motors ('drive' or 'steer'), the steady window's RMS, the whole run's
+    `batchveh.load_catalogue(path)` returns it. Each variant's demand is `demand(df, group, span, layout)`: on the
+    worst of the group's motors ('drive': the four; 'steer': those of the hubs that steer on the vehicle's
+    steering `layout`, never a fixed hub's mounting moment), the steady window's RMS, the whole run's
     low-pass peak and the mean wheel speed, or, with `span` ('mission' or a segment's prefix such as
     'seg2_climb'), the span's RMS, low-pass peak and peak speed. Each motor is checked per variant by
     `screen_one` (the reasons: REASONS, REASON_TEXT).
@@ -301,7 +303,8 @@ def screen(
     of a catalogue, whose rows of interest are screened again with it."""
     if not 0 < share <= 1:
         raise ConfigError(f"share: {share!r} is not allowed; allowed: 0 < share <= 1")
-    need = demand(df, group, span)
+    need = demand(df, group, span, layout)
+    names = groups(layout)[group]
     if params is None:
         from batchveh.model.params import parameter_specs
 
@@ -320,10 +323,10 @@ def screen(
         cycle = ramp if ramp is not None and "segments" in ramp else None  # a duty cycle's: its segments'
         straight = None if cycle is not None else ramp
         res = screen_one(need, motor, armature=armature, accel=accel, duty=duty, ramp=straight, pre=pre)
-        if span not in (None, "mission") and f"{span}_{GROUPS[group][0]}_drive_peak_lp" in df:  # one segment: its
-            res["voltage"] = _segment_voltage(df, group, span, c) > c["V"]  # voltage as the mission's segments read it
+        if span not in (None, "mission") and f"{span}_{names[0]}_drive_peak_lp" in df:  # one segment: its
+            res["voltage"] = _segment_voltage(df, names, span, c) > c["V"]  # voltage as the mission's segments read it
             res["fits"] = ~res[list(REASONS)].any(axis=1)
-        where = _segments(df, group, segments, motor, res, cycle) if segments else None
+        where = _segments(df, group, segments, motor, res, cycle, layout) if segments else None
         if detail and where is None:
             where = _where(res, span or "window")
         row = {
@@ -407,23 +410,31 @@ def segment_ramp(df: pd.DataFrame, seg: str, motor: Any, ramp: dict[str, Any]) -
 
 
 def _segments(
-    df: pd.DataFrame, group: str, segments: list[str], motor: Any, res: pd.DataFrame, ramp: dict | None = None
+    df: pd.DataFrame,
+    group: str,
+    segments: list[str],
+    motor: Any,
+    res: pd.DataFrame,
+    ramp: dict | None = None,
+    layout: str = "four_wheel",
 ) -> pd.Series:
     """A mission's duty cycle on the screen: each segment's own demand (its RMS, low-pass peak and peak speed)
     against the motor's instantaneous limits (INSTANT: a climb at speed is a point on the torque-speed plane,
     not an average; and the gearhead's intermittent rating), ORed into `res` in place; the cycle's RMS and heat
     stay the whole mission's. Per variant, the first segment and reason it fails for ("seg3_climb: voltage at
-    16.5 rad/s"), or the cycle's ("mission: thermal"); "" where it fits."""
+    16.5 rad/s"), or the cycle's ("mission: thermal"); "" where it fits. `layout`: the steering layout, whose
+    steering group is its steered hubs' motors (`demand`)."""
     c = motor.resolved()
+    names = groups(layout)[group]
     bound = bound_at_wheel(c)
     where = pd.Series("", index=res.index, dtype=object)
-    wheel_by_wheel = f"{segments[0]}_{GROUPS[group][0]}_drive_peak_lp" in df if segments else False
+    wheel_by_wheel = f"{segments[0]}_{names[0]}_drive_peak_lp" in df if segments else False
     if wheel_by_wheel:  # the voltage is each segment's (below), not the cycle's peak torque at its peak speed
         res["voltage"] = False
     # the cycle's peak is its segments' largest: each segment judges its own (an accelerating one with its ramp)
     res["peak"] = False
     for seg in segments:
-        need = demand(df, group, seg)
+        need = demand(df, group, seg, layout)
         got = screen_one(need, motor)
         if ramp is not None and group == "drive" and seg in ramp.get("standing", ()):
             # a steer in place: the drives hold their wheels still against the patch's scrub; one at its bound lets
@@ -436,7 +447,7 @@ def _segments(
         if motor.gear_max_intermittent_torque is not None:
             got["gear_torque"] = np.minimum(need["peak"], bound) > motor.gear_max_intermittent_torque
         if wheel_by_wheel:  # the voltage wheel by wheel, on the torque that drives
-            got["voltage"] = _segment_voltage(df, group, seg, c) > c["V"]
+            got["voltage"] = _segment_voltage(df, names, seg, c) > c["V"]
         for why in (*INSTANT, "gear_torque"):
             hit = got[why].to_numpy(bool)
             res[why] = res[why].to_numpy(bool) | hit
@@ -449,8 +460,9 @@ def _segments(
     return where
 
 
-def _segment_voltage(df: pd.DataFrame, group: str, seg: str, c: dict[str, float]) -> np.ndarray:
-    """Per variant, the largest terminal voltage a segment asks of one of the group's motors: each wheel's peak
+def _segment_voltage(df: pd.DataFrame, names: tuple[str, ...], seg: str, c: dict[str, float]) -> np.ndarray:
+    """Per variant, the largest terminal voltage a segment asks of one of a group's motors `names` (the drives, or
+    the steered hubs' steering motors): each wheel's peak
     low-pass torque while it drives (a braking torque needs less voltage, not more), at most the bound, with that
     wheel's own peak speed: i R + K N w, the largest over the wheels. Still an upper bound (the two peaks need not
     fall at one instant), but it no longer pairs one wheel's torque with another's speed, or a stop's braking with
@@ -458,9 +470,9 @@ def _segment_voltage(df: pd.DataFrame, group: str, seg: str, c: dict[str, float]
     where it falls more than SHORT_SHARE behind its speed (`segment_shortfall`), so a drive's speed is taken
     SHORT_SHARE below the peak (a steering motor's at its peak: the loop judges it on its time at the line)."""
     bound = bound_at_wheel(c)
-    forgiven = SHORT_SHARE if group == "drive" else 0.0
+    forgiven = SHORT_SHARE if names == GROUPS["drive"] else 0.0
     out = np.zeros(len(df))
-    for m in GROUPS[group]:
+    for m in names:
         torque = np.minimum(df[f"{seg}_{m}_drive_peak_lp"].abs().to_numpy(), bound)
         speed = (1.0 - forgiven) * df[f"{seg}_{m}_speed_peak"].abs().to_numpy()
         out = np.maximum(out, terminal_voltage(torque, speed, c))

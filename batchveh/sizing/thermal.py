@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from batchveh.analysis.demand import GROUP_RISES
+from batchveh.analysis.demand import GROUP_RISES, RISE_GROUP
 from batchveh.model.battery import Battery
 
 
@@ -54,7 +54,9 @@ def closed_form(spec: Any) -> bool:
     return spec.stats_config().mission is None
 
 
-def hot_columns(res: pd.DataFrame, start: dict, consts: dict, battery: Battery | None = None):
+def hot_columns(
+    res: pd.DataFrame, start: dict, consts: dict, battery: Battery | None = None, rises: dict | None = None
+):
     """A run's columns had it started at the rises `start` ({'motors.drive_start_rise': (n,), 'motors.steer_start_rise':
     (n,)} K, each group's windings), in closed form from `res`, a run from ambient with `motors.hot_columns`
     (motor_stats.HOT_COLUMNS's columns), and which variants it cannot answer for. Returns (the columns, redo (n,) bool).
@@ -67,7 +69,9 @@ def hot_columns(res: pd.DataFrame, start: dict, consts: dict, battery: Battery |
     energy exactly (the power rises by alpha R i^2 g s); the bus's peak power below P + s (its gains) and at least
     P. A variant is redone (`redo`) where a step would reach the voltage line (s at HOT_MARGIN of
     `<motor>_voltage_margin` or above: its current would depend on s), where its thermal verdict lies inside the
-    peak's bounds, and where the battery's power does. `consts`: the groups' resolved catalogue constants."""
+    peak's bounds, and where the battery's power does. `consts`: the groups' resolved catalogue constants.
+    `rises`: each start rise's windings (`analysis.demand.group_rises` of the vehicle's steering layout: a fixed
+    hub's slot is no winding; default GROUP_RISES, the four-wheel layout's), `start` and `consts` keyed alike."""
     from batchveh.stepping.motor_stats import HOT_GRID
 
     out = res.copy()
@@ -78,7 +82,8 @@ def hot_columns(res: pd.DataFrame, start: dict, consts: dict, battery: Battery |
     last = len(grid) - 1
     net = res["bus_energy_wh"].to_numpy(float).copy()
     bus_hi = res["bus_power_peak"].to_numpy(float).copy()
-    for (key, names), side in zip(GROUP_RISES.items(), ("drive", "steer"), strict=True):
+    for key, names in (GROUP_RISES if rises is None else rises).items():
+        side = RISE_GROUP[key]
         s = np.asarray(start[key], float)
         t_max = consts[key]["T_max"]
         bus_hi += s * res[f"bus_power_gain_{side}"].to_numpy(float)
