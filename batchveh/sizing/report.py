@@ -752,9 +752,9 @@ def sheet_table(sheet: dict[str, Any], params: list[str], at: str = "at the whee
     rows = []
     for key, fig in sheet["at_wheel"].items():
         variant = ", ".join(f"{k} {_short(v)}" for k, v in fig["variant"].items()) or "-"
-        at = shaft.get(key, {}).get("value", float("nan"))
+        at_shaft = shaft.get(key, {}).get("value", float("nan"))  # not `at`: the column's name
         rows.append({"figure": SHEET_TEXT.get(key, key), "unit": fig["unit"], at: _short(fig["value"]),
-                     "at the shaft": _short(at), "set by the variant": variant})  # fmt: skip
+                     "at the shaft": _short(at_shaft), "set by the variant": variant})  # fmt: skip
     return pd.DataFrame(rows)
 
 
