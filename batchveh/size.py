@@ -431,7 +431,7 @@ def hottest_phase(ses: Session, loop: Any) -> tuple[str, dict[str, float], str, 
     covers it and why not, and its time series from its own hot start (`trace`)."""
     import numpy as np
 
-    from batchveh.sizing.loop import IN_LOOP_REASONS, STEER_REASONS, best_in_loop
+    from batchveh.sizing.loop import IN_LOOP_REASONS, STEER_REASONS, best_in_loop, not_simulated
 
     spec, df = ses.spec, ses.df
     hottest = ses.chosen or best_in_loop(loop)
@@ -450,6 +450,10 @@ def hottest_phase(ses: Session, loop: Any) -> tuple[str, dict[str, float], str, 
     reasons = [r for r in IN_LOOP_REASONS if bool(d[f"fails_{r}"].iloc[worst])]
     reasons += [f"steering {r}" for r in STEER_REASONS if bool(d[f"steer_fails_{r}"].iloc[worst])]
     note = f"{hottest} misses it: {', '.join(reasons)}" if reasons else f"{hottest} covers it"
+    if not_simulated(d)[worst]:  # no variant judged: its run says nothing of the motor (nor does its trace)
+        check = d["motor_check"].iloc[worst]
+        why = "diverged" if int(d["status_code"].iloc[worst]) == 1 else f"failed its check: {check}"
+        note = f"{hottest}:\nits run in the loop could not be simulated ({why}): not judged"
     t0 = time.perf_counter()
     series = trace(spec, ses.args.catalogue, hottest, ses.steer, values, rise)
     ses.walls["trace"] = time.perf_counter() - t0

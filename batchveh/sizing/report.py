@@ -144,6 +144,8 @@ def verdict_table(s: Sizing) -> pd.DataFrame:
             row["not simulated"] = q["not_simulated_why"] if q["not_simulated"] else "0"
             if name == s.chosen:
                 row["verdict"] = "chosen"
+            elif int(q["not_simulated"]) == len(s.servo):  # no run to judge: nothing said of the motor
+                row["verdict"] = f"not judged: no run in the loop could be simulated ({q['not_simulated_why']})"
             else:
                 row["verdict"] = f"fails: covers {q['coverage']:.1%} < {s.share:.0%}; {_counts(q, IN_LOOP_REASONS)}"
         else:
