@@ -220,9 +220,12 @@ def _catalogue(path: str, where: str) -> dict[str, DCMotor]:
 
 # a fixed hub's steering slot with model dcmotor: a stiff direct drive (1 N m/A, 0.01 Ohm, 10 kA at 1 kV: 10 kN m)
 # that holds the hub at 0 through the drive's angle loop, as the servo's PD does; no winding heats. Not a motor of
-# the catalogue: its torque is the moment the hub's mounting carries
+# the catalogue: its torque is the moment the hub's mounting carries. Its rotor inertia, 1 kg m^2 at a joint that
+# does not move, keeps the loop's derived gains positive: its back-EMF damping, K^2 / R = 100 N m s/rad, over a
+# light hub's inertia (below about 0.17 kg m^2 at dt 5 ms) made the angle gain negative (model/drive.gains) and
+# the hubs of a 50 kg robot spun away within 0.3 s; with it they hold within 1e-5 rad
 HUB_LOCK = DCMotor(name="hub_lock", torque_constant=1.0, terminal_resistance=0.01, bus_voltage=1000.0,
-                   max_continuous_current=1.0e4, rotor_inertia=1e-4)  # fmt: skip
+                   max_continuous_current=1.0e4, rotor_inertia=1.0)  # fmt: skip
 
 
 @dataclass(frozen=True)
