@@ -148,7 +148,8 @@ def update(c: dict[str, Any], tau, lp, s: dict[str, Any], i, cfg: MissionStatsCo
         out["t_peak"] = peak(c["t_peak"], e["temp"])
         out["drawn"] = c["drawn"] + total(xp.maximum(power, 0.0)) * cfg.dt
         out["regen"] = c["regen"] + total(xp.maximum(-power, 0.0)) * cfg.dt
-        out["bus_energy"] = c["bus_energy"] + total(power.sum(-1)[..., None])[..., 0] * cfg.dt
+        bus = (power * e["on_bus"]).sum(-1)  # the motors' own, never a fixed hub's lock (motor_stats.sample)
+        out["bus_energy"] = c["bus_energy"] + total(bus[..., None])[..., 0] * cfg.dt
     return out
 
 

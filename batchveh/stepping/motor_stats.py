@@ -94,8 +94,8 @@ _DRIVE = {
     "speed_shortfall": ("1", "steady mean wheel speed below the imposed speed, relative to it (negative: faster)"),
 }
 _VEHICLE = {
-    "bus_power_peak": ("W", "peak electrical power of the 8 motors together (drawn), run after the settle"),
-    "bus_energy_wh": ("Wh", "net electrical energy of the 8 motors over the run after the settle"),
+    "bus_power_peak": ("W", "peak electrical power of the motors together (drawn; a fixed hub has none), run after the settle"),
+    "bus_energy_wh": ("Wh", "net electrical energy of the motors over the run after the settle (a fixed hub has none)"),
     "motor_limited": ("", "a drive motor spent more than 1% of the run at its voltage line or current limit"),
     "motor_status": (
         "",
@@ -128,6 +128,9 @@ class MotorStatsConfig:
     R_T: tuple[float, ...] = (0.0,) * 8  # K/W, the winding's one-node thermal resistance (0: no thermal model)
     C: tuple[float, ...] = (0.0,) * 8  # J/K, its capacitance
     N: tuple[float, ...] = (1.0,) * 8  # the gear ratio
+    # 1.0 where the slot is a motor on the bus, 0.0 for a fixed hub's HUB_LOCK (its power is no motor's): the bus
+    # columns (bus_power_peak, bus_energy_wh) sum the motors only
+    bus: tuple[float, ...] = (1.0,) * 8
     hot: bool = False  # also the start-rise gains (HOT_COLUMNS): a run's columns from any other start rise
 
     def constants(self) -> dict[str, np.ndarray]:
@@ -141,6 +144,7 @@ class MotorStatsConfig:
         if vehicle.motors.model != "dcmotor":
             return None
         each = [x.resolved() for x in vehicle.dc_motors()]  # a fixed hub's slot: vehicle.HUB_LOCK
+        on_bus = (1.0,) * 4 + tuple(1.0 if s else 0.0 for s in vehicle.steering.steered)
         return MotorStatsConfig(
             K=tuple(c["K"] for c in each),
             R=tuple(c["R"] / c["eta"] for c in each),
@@ -151,11 +155,12 @@ class MotorStatsConfig:
             R_T=tuple(c["R_T"] for c in each),
             C=tuple(c["C"] if c["R_T"] > 0 else 0.0 for c in each),
             N=tuple(c["N"] for c in each),
+            bus=on_bus,
             hot=bool(vehicle.motors.hot_columns),
         )
 
 
-CONSTANTS = ("K", "R", "eta", "V", "force_max", "T_amb", "R_T", "C", "N")  # per motor, MotorStatsConfig's numbers
+CONSTANTS = ("K", "R", "eta", "V", "force_max", "T_amb", "R_T", "C", "N", "bus")  # per motor, MotorStatsConfig's numbers
 
 
 def constants_of(cfg: MotorStatsConfig, params: Any = None, xp=np, dtype=None) -> dict[str, Any]:
@@ -181,6 +186,7 @@ def sample(force, velocity, temp, volt, cfg: MotorStatsConfig, xp=np, consts=Non
         "current": current,
         "temp": temp,
         "power": volt * current,
+        "on_bus": c["bus"],  # (..., 1, 8): 0 at a fixed hub's lock
         "at_v": xp.abs(volt) >= V * (1 - AT_LIMIT_RTOL),
         "at_i": (fmax > 0) & (xp.abs(force) >= fmax * (1 - AT_LIMIT_RTOL)),
         "joint": force * c["N"],  # the torque the current gives at the joint
@@ -247,7 +253,7 @@ def update(c: dict[str, Any], e: dict[str, Any], tau, w, wr, dt: float, xp=np) -
     wk, wrk = w[:, None], wr[:, None]
     cur, power, temps = e["current"], e["power"], e["temp"]
     run = wr > 0
-    bus = power.sum(-1)
+    bus = (power * e["on_bus"]).sum(-1)  # the motors' own, never a fixed hub's lock
     out = dict(c)
     out["n_run"] = c["n_run"] + wr.sum()
     out["i_sumsq"] = c["i_sumsq"] + (wk * cur * cur).sum(-2)
