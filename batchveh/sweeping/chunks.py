@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import platform
+import threading
 import time
 from collections.abc import Callable
 from functools import partial
@@ -30,6 +31,10 @@ from batchveh.sweeping.results import ResultFolder, part_table, seal
 from batchveh.sweeping.spec import SweepSpec, sampler_version
 
 TABLE_VERSION = 2  # how variant rows are drawn from a spec; a resume must match it
+# one chunk prepared at a time in a process: make_batch keeps per-process state that two threads must not use at
+# once (stepping/fields.py's set_const keeps one Batch per vehicle, whose inputs and outputs a second chunk's
+# preparation overwrote mid-call: the first chunks' dof_M0, body_subtreemass, ... were another chunk's, issue 62)
+PREPARING = threading.Lock()
 
 
 class ChunkRunner:
@@ -127,11 +132,13 @@ class ChunkRunner:
         spec = self.spec
         t0 = time.perf_counter()
         rows = self.table.rows(c * self.chunk, c * self.chunk + self.size(c))
-        try:  # an impossible variant (a wheel no larger than its hub): one line naming the spec
-            batch = make_batch(spec.vehicle, spec.scenario, {k: rows[k].to_numpy() for k in spec.params}, spec.params)
-        except ConfigError as err:
-            raise ConfigError(f"{spec.where}: sweep.params: {err}") from None
-        apply_solver(batch.model, spec.solver)
+        with PREPARING:
+            try:  # an impossible variant (a wheel no larger than its hub): one line naming the spec
+                table = {k: rows[k].to_numpy() for k in spec.params}
+                batch = make_batch(spec.vehicle, spec.scenario, table, spec.params)
+            except ConfigError as err:
+                raise ConfigError(f"{spec.where}: sweep.params: {err}") from None
+            apply_solver(batch.model, spec.solver)
         return c, rows, batch, time.perf_counter() - t0
 
     def finish(self, prepared: tuple[int, pd.DataFrame, Any, float]) -> pa.Table:
@@ -179,6 +186,8 @@ class ChunkRunner:
         the chunks already simulated are written and recorded)."""
         with Pipeline(self, folder) as pipe:
             for i, c in enumerate(todo):
+                if i == 0:  # the first chunk on the preparing thread too, before the next: one after the other
+                    pipe.ahead(c)
                 if i + 1 < len(todo):
                     pipe.ahead(todo[i + 1])
                 where = f"chunk {c + 1}/{self.n_chunks}"
@@ -193,7 +202,9 @@ class ChunkRunner:
 
 class Pipeline:
     """One process's chunks, overlapped with its engine: `ahead(c)` prepares chunk c on a thread while the
-    engine runs another (MuJoCo's set_const, JAX and XLA release the GIL), `simulate(c)` runs it, and
+    engine runs another (MuJoCo's set_const, JAX and XLA release the GIL), one chunk after another in the order
+    asked (`PREPARING`: a chunk's variants never depend on which chunk was prepared beside it; ask for the chunk
+    to simulate first), `simulate(c)` runs it (prepared on that thread where it was not asked ahead), and
     `write(c, table, then)` writes its part on a second thread while the engine runs the next, then calls
     then(c, part name, record) on that thread. Leaving the `with` block waits for every write, also on an
     error: a chunk simulated is written and recorded. A write that raised raises in the next `simulate` or
@@ -229,10 +240,10 @@ class Pipeline:
         return f is not None and f.done()
 
     def simulate(self, c: int) -> pa.Table:
-        """Chunk c's table (prepared ahead or now); raises a write that failed before."""
+        """Chunk c's table (prepared ahead or now, on the preparing thread); raises a write that failed before."""
         self._check()
-        f = self._prepared.pop(c, None)
-        return self.runner.finish(f.result() if f is not None else self.runner.prepare(c))
+        self.ahead(c)
+        return self.runner.finish(self._prepared.pop(c).result())
 
     def write(
         self,

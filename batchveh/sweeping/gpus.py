@@ -329,6 +329,7 @@ class GpuProcesses:
                         ahead = self._ahead_here()
                         phase(f"chunk {c + 1}/{self.runner.n_chunks} here, {self._held()} on worker processes")
                         self.timeline.add("chunk start", chunk=c, where="driver")
+                    pipe.ahead(c)  # prepared before the next (one chunk at a time: chunks.Pipeline)
                     if ahead is not None:
                         pipe.ahead(ahead)
                     pipe.write(c, pipe.simulate(c), self._written_here)
