@@ -389,7 +389,7 @@ def worst_trace(axes, s: Sizing) -> None:
         tx.set_ylim(-top, top)
         fast = max(c["V"] / (c["K"] * c["N"]), float(t[f"{m}_speed"].abs().max()))
         sx.set_ylim(-0.5 * fast, 1.5 * fast)
-        tx.set_title(f"{name}: the run's most loaded drive, step by step", fontsize=9)
+        tx.set_title(f"{name}:\nthe run's most loaded drive, step by step", fontsize=9)
         tx.legend(fontsize=7, loc="upper left")
         sx.legend(fontsize=7, loc="lower right")
     for m in WHEELS:
