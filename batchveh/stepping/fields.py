@@ -32,6 +32,7 @@ in mujoco.batch and in MJX: every variant keeps the base model's, as with a comp
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Mapping, Sequence
 
 import mujoco
@@ -294,6 +295,9 @@ def _threads() -> int:
 
 
 _BATCHES: dict[tuple, object] = {}
+# one set_const at a time in a process: two threads on one cached Batch read each other's variants' fields (the
+# sweep's prepare thread and its caller did, before sweeping/chunks.PREPARING; tests/test_determinism.py)
+_LOCK = threading.Lock()
 
 
 def set_const(
@@ -309,6 +313,11 @@ def set_const(
     simulations' data) is kept for the next call with the same key, a sweep's next chunk."""
     from mujoco.batch import Batch
 
+    with _LOCK:
+        return _set_const(Batch, m, inputs, outputs, n, nthread, key)
+
+
+def _set_const(Batch, m, inputs, outputs, n, nthread, key) -> dict[str, np.ndarray]:  # noqa: N803 (a class)
     tile = min(TILE, n)
     nthread = nthread or _threads()
     cache = (key, tile, nthread, tuple(inputs)) if key is not None else None
