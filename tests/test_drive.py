@@ -280,3 +280,17 @@ def test_the_winding_follows_the_one_node_model_and_the_sweep_reports_its_peak(c
         peak = np.max(np.abs(tr["force"][run, j])) / c["K"][j] / c["eta"][j]
         assert out[f"{name}_current_peak"][0] == pytest.approx(peak, rel=1e-9)
     assert out["drive_lf_current_peak"][0] == pytest.approx(c["i_max"][0], rel=1e-9)  # the limit, not past it
+
+
+def test_a_steering_motor_faster_than_the_step_keeps_a_positive_angle_gain():
+    """A steering slot whose back-EMF damping dwarfs its inertia over dt (a mechanical time constant R J / K^2 of
+    1e-6 s, at dt 5 ms: ffec2a4's HUB_LOCK on a 0.015 kg m^2 hub): kv stays below KV_STEER_CAP I / dt, so the
+    angle gain's bound, KP_SHARE (4 - 2 kv dt / I) I / dt^2, stays positive (it was -9,116 N m/rad)."""
+    from batchveh.model.drive import KV_STEER_CAP, gains
+
+    dt, hub = 0.005, 0.015
+    c = {"K": np.full(8, 1.0), "R": np.full(8, 0.01), "N": np.ones(8)}
+    inertia = np.full(8, hub + 1e-4)  # the joint's own inertia with the rotor's J N^2
+    out = gains(c, inertia, np.full(4, 0.5), dt, (0.0, 0.0), {})
+    assert np.all(out["kp"][4:] > 0) and np.all(out["ki"][4:] > 0), out["kp"]
+    assert np.all(out["kv"][4:] <= KV_STEER_CAP * inertia[4:] / dt * (1 + 1e-12))

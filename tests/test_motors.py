@@ -538,7 +538,7 @@ def test_the_current_integral_covers_the_steps_the_end_temperature_holds():
         n = block.stop - block.start
         e = {"current": cur[:, block], "power": np.zeros((1, n, 8)), "temp": np.full((1, n, 8), 25.0),
              "at_v": np.zeros((1, n, 8), bool), "at_i": np.zeros((1, n, 8), bool), "joint": np.zeros((1, n, 8)),
-             "bound": np.full((1, n, 8), np.inf)}  # fmt: skip
+             "bound": np.full((1, n, 8), np.inf), "on_bus": np.ones((1, 1, 8))}  # fmt: skip
         c = motor_stats.update(c, e, np.zeros((1, n, 8)), np.ones(n), np.ones(n), dt)
     out = motor_stats.finalize(c, np.array([7.0]), np.zeros((1, 4)), np.ones((1, 4)))
     np.testing.assert_allclose(out["drive_rf_current_sq_time"], (cur[:, :6, 1] ** 2).sum(-1) * dt, rtol=1e-12)

@@ -53,6 +53,7 @@ import numpy as np
 from batchveh.model.motors import COPPER_TEMPCOEF, REFERENCE_TEMP
 
 KV_SHARE = 0.5  # the speed loop's explicit damping: this share of the largest that dt allows on the free joint
+KV_STEER_CAP = 1.9  # the steering's kv at most this many I / dt: kp_max = KP_SHARE (4 - 2 kv dt / I) I / dt^2 > 0
 KP_SHARE = 0.5  # the steering's kp: at most this share of the largest that dt allows, (4 - 2 kv dt / I) I / dt^2
 LOAD_FACTOR = 2.0  # the steering's tyre stiffness is taken at this many times a wheel's static load (N = m g / 4):
 # load transfer on a climb, a stop and a bump; an overestimate only stiffens the loop (see `gains`)
@@ -107,6 +108,9 @@ def gains(
     bw_d, bw_s = (np.asarray(b, float)[..., None] for b in bandwidth)
     kv_d = np.where(bw_d > 0, np.minimum(bw_d * i_d, kv_max[..., :4]), kv_max[..., :4])
     kv_s = np.where(bw_s > 0, np.minimum(3 * bw_s * i_s, kv_max[..., 4:]), kv_max[..., 4:])
+    # where the back-EMF's damping dwarfs the hub's inertia over dt (a mechanical time constant below about dt / 3),
+    # kv_max alone would leave kp_max below 0 (the hub then spins away): kv stays below KV_STEER_CAP I / dt
+    kv_s = np.minimum(kv_s, KV_STEER_CAP * i_s / dt)
     w_s = kv_s / (3 * i_s)
     kp_max = KP_SHARE * (4 - 2 * kv_s * dt / i_s) * i_s / dt**2
     kp_s = np.minimum(3 * i_s * w_s**2 + np.asarray(tyre, float), kp_max)

@@ -161,13 +161,13 @@ _SKID = LAYOUTS.index("skid")
 def steered(p):
     """(4,) 1.0 where the hub steers in the vehicle's layout (`steering.layout`, carried as LAYOUT_KEY), else 0:
     every steering target is multiplied by it, so a fixed hub's angle, rate and axis roll are 0."""
-    code = jnp.asarray(p.get(LAYOUT_KEY, 0.0))
+    code = jnp.asarray(p[LAYOUT_KEY])  # every engine carries it (params.base_params); a lost key fails loudly
     return jnp.asarray(_STEERED)[jnp.round(code).astype(int)]
 
 
 def _skid(p):
     """True where the vehicle is skid-steered (a traced scalar)."""
-    return jnp.round(jnp.asarray(p.get(LAYOUT_KEY, 0.0))) == _SKID
+    return jnp.round(jnp.asarray(p[LAYOUT_KEY])) == _SKID
 
 
 def skid_speeds(p, speed_ms, yaw_rate):

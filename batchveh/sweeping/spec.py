@@ -396,7 +396,8 @@ def spec_from_mapping(raw: dict[str, Any], where: str) -> SweepSpec:
     vehicle, scenario = variant_setup(vehicle, scenario, fixed)
     vehicle.validate(f"{where}: vehicle")
     check_ground(vehicle.tyre.model, scenario.obstacle, f"{where}: scenario")
-    check_layout(vehicle.steering.layout, scenario, f"{where}: scenario")
+    of = f" (vehicle {top.vehicle}, steering.layout {vehicle.steering.layout})" if isinstance(top.vehicle, str) else ""
+    check_layout(vehicle.steering.layout, scenario, f"{where}{of}: scenario")
     course.check_sweep(base_params(vehicle, scenario), params, scenario.obstacle, sw.method in SAMPLED, where)
     if scenario.kind == "mission":
         missions.check_sweep(given, params, fixed, where)
