@@ -401,6 +401,17 @@ def _screen_ratios(d: dict) -> str:
     )
 
 
+def _layouts(d: dict) -> str:
+    """validation/layouts_gpu.py: the warp engine's warm time per steering layout, against the four-wheel layout's."""
+    rows = d["timing"]
+    base = min(rows[0]["warm_s"])
+    parts = [f"{r['layout']} {r['scenario']} {min(r['warm_s']):.3f} s ({min(r['warm_s']) / base:.3f}x)" for r in rows[1:]]
+    return (
+        f"four-wheel pivot **{base:.3f} s** ({rows[0]['variant_steps_per_s'] / 1e6:.1f}e6 variant-steps/s); "
+        + "; ".join(parts)
+    )
+
+
 ROWS = [
     Row(
         "The warp engine (MuJoCo Warp 4.0 as its physics: slip tyre, drive, statistics) against MuJoCo Warp alone "
@@ -548,6 +559,14 @@ ROWS = [
         "two cores of two H100 hosts",
         "`taskset -c 0,1 python benchmarks/sizing.py robot --n 400 --backend mujoco --warm 1`",
     ),  # fmt: skip
+    Row(
+        "Issue 64's steering layouts on the warp engine: a 50 kg robot, 16,384 variants x 1,300 steps (friction and "
+        "payload), the fastest of two warm runs per layout and scenario; the layouts change the controls only",
+        ["h100-layouts-warp.json"],
+        _layouts,
+        "one H100 host (a4a6f9b's working tree)",
+        "`python validation/layouts_gpu.py OUT` (also MuJoCo C against warp per layout: validation/LAYOUTS.md)",
+    ),
     Row(
         "Issue 61's screen at 100,000 conditions, as the size command runs it (every pair's counts, the windows, "
         "each motor's chosen ratio in detail; the ramp's verdict by its threshold, the sharing read once)",
