@@ -249,6 +249,29 @@ CHECKS = [
     ),
     ("DC motors on warp: four-wheel mean", "MuJoCo C float64", "test_dcmotor.py", ["WARP_SUM_RTOL"], None),
     ("DC motors on warp: a wheel's mean and peak", "MuJoCo C float64", "test_dcmotor.py", ["WARP_WHEEL_RTOL"], None),
+    (
+        "Skid pivot: the four wheels' mean drive torque (30 kg-1 t; validation/LAYOUTS.md)",
+        "mu N r L / sqrt(L^2 + B^2) (Coulomb, four point contacts)",
+        "test_layouts.py",
+        ["SKID_MEAN_RTOL"],
+        None,
+    ),
+    ("Skid pivot: the steady yaw rate", "b^2 / h^2 of the command", "test_layouts.py", ["SKID_YAW_RTOL"], None),
+    (
+        "Skid turn of radius R: the yaw rate",
+        "the slip tyre's steady state",
+        "test_layouts.py",
+        ["SKID_TURN_YAW_RTOL"],
+        None,
+    ),
+    ("Front steering: the yaw rate of a steady turn", "v / hypot(x_cg, R)", "test_layouts.py", ["FRONT_YAW_RTOL"], None),
+    (
+        "Front steering: the path's radius",
+        "hypot(x_cg, R)",
+        "test_layouts.py",
+        ["FRONT_RADIUS_RTOL"],
+        None,
+    ),
 ]
 
 
