@@ -405,7 +405,9 @@ def _layouts(d: dict) -> str:
     """validation/layouts_gpu.py: the warp engine's warm time per steering layout, against the four-wheel layout's."""
     rows = d["timing"]
     base = min(rows[0]["warm_s"])
-    parts = [f"{r['layout']} {r['scenario']} {min(r['warm_s']):.3f} s ({min(r['warm_s']) / base:.3f}x)" for r in rows[1:]]
+    parts = [
+        f"{r['layout']} {r['scenario']} {min(r['warm_s']):.3f} s ({min(r['warm_s']) / base:.3f}x)" for r in rows[1:]
+    ]
     return (
         f"four-wheel pivot **{base:.3f} s** ({rows[0]['variant_steps_per_s'] / 1e6:.1f}e6 variant-steps/s); "
         + "; ".join(parts)

@@ -1,4 +1,4 @@
-"""A fixed hub (steering.layout skid or front) with model dcmotor: HUB_LOCK holds it, and the bus counts the motors only.
+"""A fixed hub (steering.layout skid or front) with model dcmotor: HUB_LOCK holds it; the bus counts the motors only.
 
 The 50 kg skid robot below has light hubs (2 kg, about 3e-3 kg m^2 about the hinge): with HUB_LOCK's first rotor
 inertia (1e-4 kg m^2) its back-EMF damping made the derived angle gain negative and the hubs spun away (every loop
@@ -76,9 +76,10 @@ def test_the_bus_counts_the_motors_and_not_the_locks(catalogue, layout):
     cfg = dataclasses.replace(stats.StatsConfig.for_scenario(sc), motors=MotorStatsConfig.for_vehicle(v))
     out = MujocoEngine(sc, cfg, 1).run(make_batch(v, sc, {"friction": np.array([0.6])}))
     assert int(out["status_code"][0]) == 0
-    motors = [f"drive_{c}" for c in CORNERS] + [f"steer_{c}" for c, s in zip(CORNERS, v.steering.steered) if s]
+    steered = zip(CORNERS, v.steering.steered, strict=True)
+    motors = [f"drive_{c}" for c in CORNERS] + [f"steer_{c}" for c, s in steered if s]
     net = sum(float(out[f"{m}_energy_drawn"][0]) - float(out[f"{m}_energy_regen"][0]) for m in motors)
-    locks = [f"steer_{c}" for c, s in zip(CORNERS, v.steering.steered) if not s]
+    locks = [f"steer_{c}" for c, s in zip(CORNERS, v.steering.steered, strict=True) if not s]
     lock = sum(float(out[f"{m}_energy_drawn"][0]) - float(out[f"{m}_energy_regen"][0]) for m in locks)
     np.testing.assert_allclose(float(out["bus_energy_wh"][0]) * 3600.0, net, rtol=BUS_RTOL)
     assert abs(lock) > 1e-6 * abs(net)  # the locks did draw: counting them would move the bus

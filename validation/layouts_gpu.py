@@ -123,7 +123,8 @@ def timing(name, layout, kind, kw) -> dict:
         times.append(time.perf_counter() - t0)
     steps = n * sc.n_steps
     return {"vehicle": name, "layout": layout, "scenario": kind, "n": n, "steps": sc.n_steps,
-            "first_s": times[0], "warm_s": sorted(times[1:]), "variant_steps_per_s": steps / min(times[1:])}  # fmt: skip
+            "first_s": times[0], "warm_s": sorted(times[1:]),
+            "variant_steps_per_s": steps / min(times[1:])}  # fmt: skip
 
 
 def main() -> None:

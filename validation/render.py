@@ -264,7 +264,13 @@ CHECKS = [
         ["SKID_TURN_YAW_RTOL"],
         None,
     ),
-    ("Front steering: the yaw rate of a steady turn", "v / hypot(x_cg, R)", "test_layouts.py", ["FRONT_YAW_RTOL"], None),
+    (
+        "Front steering: the yaw rate of a steady turn",
+        "v / hypot(x_cg, R)",
+        "test_layouts.py",
+        ["FRONT_YAW_RTOL"],
+        None,
+    ),
     (
         "Front steering: the path's radius",
         "hypot(x_cg, R)",

@@ -454,10 +454,11 @@ def check_layout(layout: str, sc: Scenario, where: str = "scenario") -> None:
     pairs = motions(sc) if callable(motions) else [("", m) for m in motions]
     for at, motion in pairs:
         if motion not in allowed:
-            kinds = [k for k, kind in SCENARIOS.items() if not callable(kind.motions) and set(kind.motions) <= set(allowed)]
+            kinds = [k for k, kd in SCENARIOS.items() if not callable(kd.motions) and set(kd.motions) <= set(allowed)]
+            asked = MOTION_NAMES.get(motion, motion)
             raise ConfigError(
-                f"{where}{at}: kind {sc.kind!r} asks {MOTION_NAMES.get(motion, motion)} of a vehicle with steering.layout "
-                f"{layout!r}, and {WHY[layout]}; allowed on {layout}: {', '.join(kinds)}, custom and mission with "
+                f"{where}{at}: kind {sc.kind!r} asks {asked} of a vehicle with steering.layout {layout!r}, and "
+                f"{WHY[layout]}; allowed on {layout}: {', '.join(kinds)}, custom and mission with "
                 f"{', '.join(a for a in allowed if '_' not in a)} only"
             )
 

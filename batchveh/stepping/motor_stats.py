@@ -94,7 +94,10 @@ _DRIVE = {
     "speed_shortfall": ("1", "steady mean wheel speed below the imposed speed, relative to it (negative: faster)"),
 }
 _VEHICLE = {
-    "bus_power_peak": ("W", "peak electrical power of the motors together (drawn; a fixed hub has none), run after the settle"),
+    "bus_power_peak": (
+        "W",
+        "peak electrical power of the motors together (drawn; a fixed hub has none), run after the settle",
+    ),
     "bus_energy_wh": ("Wh", "net electrical energy of the motors over the run after the settle (a fixed hub has none)"),
     "motor_limited": ("", "a drive motor spent more than 1% of the run at its voltage line or current limit"),
     "motor_status": (
@@ -160,7 +163,8 @@ class MotorStatsConfig:
         )
 
 
-CONSTANTS = ("K", "R", "eta", "V", "force_max", "T_amb", "R_T", "C", "N", "bus")  # per motor, MotorStatsConfig's numbers
+# per motor, MotorStatsConfig's numbers
+CONSTANTS = ("K", "R", "eta", "V", "force_max", "T_amb", "R_T", "C", "N", "bus")
 
 
 def constants_of(cfg: MotorStatsConfig, params: Any = None, xp=np, dtype=None) -> dict[str, Any]:
