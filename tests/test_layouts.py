@@ -327,15 +327,38 @@ PIVOTS = [
     *((name, 0.6, 20.0) for name in ("robot_30kg", "robot_60kg", "wide_60kg", "agv_250kg", "rover_1t")),
     *((name, 0.9, -30.0) for name in ("robot_30kg", "wide_60kg", "rover_1t")),
 ]
+# the default run's cases (each check on a vehicle in Wong's band and one out of it, both yaw directions); the others
+# run with -m slow (the default run stays under 5 minutes on 2 cores)
+DEFAULT_PIVOTS = {("robot_30kg", 0.6, 20.0), ("wide_60kg", 0.6, 20.0), ("robot_30kg", 0.9, -30.0)}
+
+
+class _Runs(dict):
+    """Runs made when first asked for, kept for the module: `fn(*key)`."""
+
+    def __init__(self, fn):
+        super().__init__()
+        self.fn = fn
+
+    def __missing__(self, key):
+        self[key] = value = self.fn(*key)
+        return value
+
+
+def _params(cases, default, ids):
+    """pytest params of `cases`, those not in `default` marked slow."""
+    return [pytest.param(c, id=ids(c), marks=() if c in default else pytest.mark.slow) for c in cases]
+
+
+PIVOT_PARAMS = _params(PIVOTS, DEFAULT_PIVOTS, lambda c: f"{c[0]}-mu{c[1]}-{c[2]:+g}dps")
 
 
 @pytest.fixture(scope="module")
 def pivots():
-    """Every PIVOTS case on MuJoCo C, slip tyre (4 s each)."""
-    return {case: skid_pivot(*case) for case in PIVOTS}
+    """The PIVOTS cases asked for, on MuJoCo C, slip tyre (4 s each)."""
+    return _Runs(skid_pivot)
 
 
-@pytest.mark.parametrize("case", PIVOTS, ids=[f"{n}-mu{m}-{r:+g}dps" for n, m, r in PIVOTS])
+@pytest.mark.parametrize("case", PIVOT_PARAMS)
 def test_skid_pivot_drive_torque_is_the_coulomb_closed_form(pivots, case):
     """Each wheel's drive torque mu N a r / h, the left wheels backward and the right ones forward for a positive
     yaw (the signs flip with it), the four-wheel sum 0, the yaw rate b^2 / h^2 of the command, and each fixed hub
@@ -361,11 +384,12 @@ def test_skid_pivot_drive_torque_is_the_coulomb_closed_form(pivots, case):
     np.testing.assert_allclose(steady_angle, np.rad2deg(abs(hold) / v.motors.steer_kp), rtol=HUB_COMPLIANCE_RTOL)
 
 
-def test_wong_point_load_form_holds_where_the_lateral_slide_dominates(pivots):
+@pytest.mark.parametrize("case", PIVOT_PARAMS)
+def test_wong_point_load_form_holds_where_the_lateral_slide_dominates(pivots, case):
     """Wong's mu N a r / b, sqrt(1 + (a / b)^2) above the Coulomb form: within 10% of the simulated torque on the
     wide robot (a / b 0.36: 6.3% above), and more than 10% off on the others (a / b 1.0 to 1.33: 41% to 67%
     above), where the wheels slide along x as much as sideways and the lateral force is mu N b / h, not mu N."""
-    for (name, mu, _), res in pivots.items():
+    for (name, mu, _), res in [(case, pivots[case])]:
         v = res.vehicle
         sim = float(np.abs(means(res.stats)).mean())
         ratio = wong_torque(v, mu) / sim
@@ -383,13 +407,16 @@ TURNS = [("robot_30kg", 0.6), ("robot_30kg", -0.6), ("robot_30kg", 4.0), ("agv_2
 TURN_MU = 0.6
 
 
+DEFAULT_TURNS = {("robot_30kg", 0.6), ("robot_30kg", 4.0)}  # the others with -m slow
+
+
 @pytest.fixture(scope="module")
 def turns():
-    """Every TURNS case on MuJoCo C at 1 km/h, mu 0.6."""
-    return {case: skid_turn(case[0], TURN_MU, case[1]) for case in TURNS}
+    """The TURNS cases asked for, on MuJoCo C at 1 km/h, mu 0.6."""
+    return _Runs(lambda name, radius: skid_turn(name, TURN_MU, radius))
 
 
-@pytest.mark.parametrize("case", TURNS, ids=[f"{n}-R{r:+g}" for n, r in TURNS])
+@pytest.mark.parametrize("case", _params(TURNS, DEFAULT_TURNS, lambda c: f"{c[0]}-R{c[1]:+g}"))
 def test_skid_turn_follows_the_tyres_steady_state(turns, case):
     """Each wheel's torque and the yaw rate against the slip tyre's steady state (`brush_turn`): the inner side
     (left for R > 0) brakes, the outer one drives; the four-wheel sum is the centripetal force's share only."""
@@ -407,7 +434,9 @@ def test_skid_turn_follows_the_tyres_steady_state(turns, case):
     assert hub_angles(res.series) < FIXED_HUB_DEG
 
 
-@pytest.mark.parametrize("case", [c for c in TURNS if abs(c[1]) < 1], ids=lambda c: f"{c[0]}-R{c[1]:+g}")
+@pytest.mark.parametrize(
+    "case", _params([c for c in TURNS if abs(c[1]) < 1], DEFAULT_TURNS, lambda c: f"{c[0]}-R{c[1]:+g}")
+)
 def test_tight_skid_turn_is_the_pivots_coulomb_form(turns, case):
     """A turn tight enough to saturate every brush (R below `saturation_radius`): the inner side brakes and the
     outer one drives at mu N a r / h each, the radius' own value aside, as in a pivot; the drive forces' moment
@@ -453,14 +482,21 @@ FRONTS = [("robot_30kg", {}, 2.0, 2.0), ("robot_30kg", {}, -3.0, 3.0), ("agv_250
           ("agv_250kg", {"axis_x": 0.55}, -3.0, 3.0)]  # fmt: skip
 
 
+DEFAULT_FRONTS = {("robot_30kg", 2.0), ("agv_250kg", -3.0)}  # both vehicles, both directions; the others -m slow
+
+
 @pytest.fixture(scope="module")
 def fronts():
-    return {
-        (n, r): front_turn(vehicle(n, "front", steering=st), r, kmh) for n, st, r, kmh in FRONTS
-    }  # fmt: skip
+    """The FRONTS cases asked for, by (vehicle, radius)."""
+    by = {(n, r): (st, kmh) for n, st, r, kmh in FRONTS}
+    return _Runs(lambda n, r: front_turn(vehicle(n, "front", steering=by[n, r][0]), r, by[n, r][1]))
 
 
-@pytest.mark.parametrize("case", FRONTS, ids=[f"{n}-R{r:+g}" for n, _, r, _ in FRONTS])
+@pytest.mark.parametrize(
+    "case",
+    [pytest.param(c, id=f"{c[0]}-R{c[2]:+g}", marks=() if (c[0], c[2]) in DEFAULT_FRONTS else pytest.mark.slow)
+     for c in FRONTS],
+)  # fmt: skip
 def test_front_steered_turns_about_the_rear_axle_line(fronts, case):
     """The front hubs' steady angles against the closed forms, the yaw rate v / hypot(x_cg, R), the path's circle
     (its radius hypot(x_cg, R), its centre at (-x_cg, R) in the chassis frame: on the rear axle line), the rear

@@ -129,6 +129,7 @@ def _nearest_rank(values: np.ndarray, share: float) -> float:
     return float(np.sort(values)[math.ceil(share * len(values)) - 1])
 
 
+@pytest.mark.slow  # 9 s: the default run keeps the demand's (below) and the --steer refusal's checks of skid
 def test_the_skid_session_has_no_steering_group_and_says_so(skid):
     out, last, rc = skid
     assert rc == EXIT_OK
