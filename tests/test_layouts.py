@@ -649,6 +649,7 @@ def test_a_fixed_hubs_steering_loop_has_positive_gains():
             assert np.all(np.asarray(params[f"_dc.{k}"])[:, 4:] > 0), (name, layout, k, params[f"_dc.{k}"])
 
 
+@pytest.mark.slow  # 5 s; the default run keeps tests/test_hub_lock.py (dcmotor against servo on a skid pivot)
 @pytest.mark.parametrize("case", list(DC_CASES))
 def test_dcmotor_and_servo_agree_per_layout(case):
     """model dcmotor (catalogue motors with their drive loops) against the servo on each layout: status ok, motor
@@ -731,6 +732,7 @@ def test_bad_layout_input_is_one_line_naming_file_key_and_value(command, case, t
     assert not (tmp_path / "o").exists()  # nothing written
 
 
+@pytest.mark.slow  # a process; the default run keeps the in-process lines above and tests/test_cli_errors.py
 def test_a_bad_layout_is_refused_by_the_command_as_a_process(tmp_path):
     """The same through `python -m batchveh.run` as a process: exit 2, one line on stderr, nothing on stdout."""
     path = tmp_path / "vehicle.yaml"
