@@ -196,9 +196,7 @@ def trace(spec: Any, catalogue: str, drive: str, steer: str | None, values: dict
     m, lay = b.model, layout(b.model)
     p = {k: float(v[0]) if np.ndim(v) == 1 else np.asarray(v[0]) for k, v in b.params.items()}
     k_eta = p["_dc.K"] * p["_dc.eta"]
-    steered = spec.vehicle.steering.steered
-    # the bus: the drives and the steered hubs' motors (a fixed hub's slot, HUB_LOCK, is its mounting, no motor)
-    motor = None if all(steered) else np.array([True] * 4 + list(steered))
+    on_bus = p["_dc.bus"]  # the motors' slots, as the statistics' bus reads them (a fixed hub's HUB_LOCK: 0)
     rec: dict[str, Any] = {}
     rows = []
     for i, (d, ctrl) in enumerate(mujoco_steps(m, p, scenario=scenario, n_steps=scenario.n_steps, record=rec)):
@@ -208,7 +206,7 @@ def trace(spec: Any, catalogue: str, drive: str, steer: str | None, values: dict
         power = rec["v"] * current
         torque = d.actuator_force[lay.motor_act[:4]] * p["_dc.N"][:4]  # at the wheel
         speed = d.qvel[lay.motor_dof[:4]]
-        bus = float(np.sum(power if motor is None else power[motor]))
+        bus = float(np.sum(power * on_bus))
         rows.append([i * m.opt.timestep, *rec["T"][:4], bus, *torque, *speed])
     wheels = ("lf", "rf", "lr", "rr")
     t = pd.DataFrame(

@@ -12,8 +12,8 @@ from batchveh.model.vehicle import CORNERS, LAYOUTS, STEERED
 
 WHEELS = ("drive_lf", "drive_rf", "drive_lr", "drive_rr")
 GROUPS = {"drive": WHEELS, "steer": ("steer_lf", "steer_rf", "steer_lr", "steer_rr")}  # the four-wheel layout's
-GROUP_RISES = {"motors.drive_start_rise": WHEELS, "motors.steer_start_rise": GROUPS["steer"]}  # each group's start
 RISE_GROUP = {"motors.drive_start_rise": "drive", "motors.steer_start_rise": "steer"}  # each start rise's group
+GROUP_RISES = {key: GROUPS[group] for key, group in RISE_GROUP.items()}  # each start rise's motors (four-wheel)
 LAYOUT_TEXT = {  # the steering group of each layout, in words (the sizing's report and its sizing.json)
     "four_wheel": "four-wheel steering: four steering motors (every hub steers)",
     "skid": "skid steering: no steering motors (every hub fixed)",

@@ -378,8 +378,8 @@ def _custom_motions(sc: Scenario) -> list[tuple[str, str]]:
     """A custom scenario's motions: a steer of each hub its laws name (`steer` names all four)."""
     keys = set(sc.laws or {})
     hubs = CORNERS if "steer" in keys else [c for c in CORNERS if f"steer_{c}" in keys]
-    return [("", "straight")] + [(f".laws.steer_{c}" if c in [k[6:] for k in keys] else ".laws.steer", f"steer_{c}")
-                                 for c in hubs]  # fmt: skip
+    at = {c: f".laws.steer_{c}" if f"steer_{c}" in keys else ".laws.steer" for c in hubs}
+    return [("", "straight")] + [(at[c], f"steer_{c}") for c in hubs]
 
 
 def _check_custom(sc: Scenario, where: str) -> None:
