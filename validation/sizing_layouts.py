@@ -31,6 +31,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from batchveh.sizing import best_in_loop
+
 ROOT = Path(__file__).resolve().parent.parent
 CATALOGUE = ROOT / "notebooks" / "motors.yaml"
 JSON = ROOT / "validation" / "results" / "sizing_layouts.json"
@@ -54,7 +56,7 @@ def size(name: str, out: Path) -> dict:
     s = json.loads((folder / "sizing.json").read_text())
     loop = pd.DataFrame(s["loop"])
     screen = pd.DataFrame(s["screen"]).set_index("motor")
-    focus = s["chosen"] or str(loop.sort_values("coverage", kind="stable")["motor"].iloc[-1])
+    focus = s["chosen"] or best_in_loop(loop)
     row = loop.set_index("motor").loc[focus]
     v = pd.read_parquet(folder / "verdicts.parquet")
     err = v["steer_track_err_deg"].to_numpy(float)
